@@ -1,0 +1,353 @@
+//! GJK distance between two support-map proxies, with closest points, the features they come
+//! from and a simplex cache for warm starts.
+//!
+//! This is the 2D GJK of Box2D (`b2ShapeDistance`, Erin Catto, "Computing Distance using GJK",
+//! GDC 2010) with two changes: the query runs in the frame of shape A (so bodies far from the
+//! world origin lose no precision to their absolute coordinates), and the output carries a unit
+//! normal even when the shapes touch.
+//!
+//! The simplex solver works on the Minkowski difference `w = b - a` and finds the point of the
+//! simplex closest to the origin in barycentric coordinates. For an edge `w1 w2` with
+//! `e12 = w2 - w1`, the closest point `w1 + s e12` has `s = -w1·e12 / |e12|²`; the unnormalised
+//! barycentric coordinates are `d12_1 = w2·e12` (weight of `w1`) and `d12_2 = -w1·e12` (weight
+//! of `w2`), both positive exactly when the origin projects inside the edge. For a triangle the
+//! weights are the signed areas `n123 * cross(w2, w3)`, etc., with `n123 = cross(e12, e13)`
+//! fixing the orientation, and the Voronoi regions are tested vertex, edge, then interior.
+
+use glam::Vec2;
+
+use super::constants::GJK_MAX_ITERATIONS;
+use super::math::{Pose, Rot, cross, left_perp, right_perp};
+use super::proxy::ShapeProxy;
+
+/// The vertex indices of the last simplex, kept between queries to warm-start GJK.
+///
+/// A zeroed cache (the default) starts cold. The cache also names the closest *features*:
+/// one index on a shape is a vertex, two different indices an edge.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SimplexCache {
+    /// Number of simplex vertices (0 = cold, 1 to 3).
+    pub count: u8,
+    /// Indices of the support points on shape A.
+    pub index_a: [u8; 3],
+    /// Indices of the support points on shape B.
+    pub index_b: [u8; 3],
+}
+
+/// Input of [`shape_distance`].
+#[derive(Clone, Copy, Debug)]
+pub struct DistanceInput<'a> {
+    /// Shape A.
+    pub proxy_a: &'a ShapeProxy,
+    /// Shape B.
+    pub proxy_b: &'a ShapeProxy,
+    /// Pose of A.
+    pub pose_a: Pose,
+    /// Pose of B.
+    pub pose_b: Pose,
+    /// Whether to subtract the radii (true: surface distance; false: core distance).
+    pub use_radii: bool,
+}
+
+/// Output of [`shape_distance`].
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct DistanceOutput {
+    /// Closest point on A (world).
+    pub point_a: Vec2,
+    /// Closest point on B (world).
+    pub point_b: Vec2,
+    /// Unit normal from A to B; zero when the cores overlap.
+    pub normal: Vec2,
+    /// The distance between the closest points (m); 0 when the cores overlap. With radii, may
+    /// be negative: minus the penetration of the rounded shapes.
+    pub distance: f32,
+    /// GJK iterations spent.
+    pub iterations: u32,
+    /// Vertices of the final simplex: 1 vertex–vertex, 2 vertex–edge, 3 overlap.
+    pub simplex_count: u32,
+}
+
+#[derive(Clone, Copy, Default)]
+struct SimplexVertex {
+    w_a: Vec2,
+    w_b: Vec2,
+    w: Vec2,
+    a: f32,
+    index_a: u8,
+    index_b: u8,
+}
+
+#[derive(Clone, Copy, Default)]
+struct Simplex {
+    v: [SimplexVertex; 3],
+    count: usize,
+}
+
+/// The pose of B in A's frame: `inv(A) * B`.
+#[inline]
+pub(crate) fn relative_pose(a: Pose, b: Pose) -> Pose {
+    let q = Rot { c: a.q.c * b.q.c + a.q.s * b.q.s, s: a.q.c * b.q.s - a.q.s * b.q.c };
+    Pose { p: a.q.inv_rotate(b.p - a.p), q }
+}
+
+impl Simplex {
+    fn from_cache(cache: &SimplexCache, a: &ShapeProxy, b: &ShapeProxy, xf: Pose) -> Self {
+        let mut s = Simplex::default();
+        let count = (cache.count as usize).min(3);
+        for i in 0..count {
+            let ia = cache.index_a[i] as usize;
+            let ib = cache.index_b[i] as usize;
+            if ia >= a.count() || ib >= b.count() {
+                // A cache from other shapes: start cold.
+                s.count = 0;
+                break;
+            }
+            let v = &mut s.v[i];
+            v.index_a = ia as u8;
+            v.index_b = ib as u8;
+            v.w_a = a.point(ia);
+            v.w_b = xf.transform_point(b.point(ib));
+            v.w = v.w_b - v.w_a;
+            v.a = -1.0;
+            s.count = i + 1;
+        }
+        if s.count == 0 {
+            let v = &mut s.v[0];
+            v.index_a = 0;
+            v.index_b = 0;
+            v.w_a = a.point(0);
+            v.w_b = xf.transform_point(b.point(0));
+            v.w = v.w_b - v.w_a;
+            v.a = 1.0;
+            s.count = 1;
+        }
+        s
+    }
+
+    fn to_cache(&self) -> SimplexCache {
+        let mut c = SimplexCache { count: self.count as u8, ..Default::default() };
+        for i in 0..self.count {
+            c.index_a[i] = self.v[i].index_a;
+            c.index_b[i] = self.v[i].index_b;
+        }
+        c
+    }
+
+    fn search_direction(&self) -> Vec2 {
+        match self.count {
+            1 => -self.v[0].w,
+            _ => {
+                let e12 = self.v[1].w - self.v[0].w;
+                if cross(e12, -self.v[0].w) > 0.0 { left_perp(e12) } else { right_perp(e12) }
+            }
+        }
+    }
+
+    fn witness_points(&self) -> (Vec2, Vec2) {
+        match self.count {
+            1 => (self.v[0].w_a, self.v[0].w_b),
+            2 => (
+                self.v[0].a * self.v[0].w_a + self.v[1].a * self.v[1].w_a,
+                self.v[0].a * self.v[0].w_b + self.v[1].a * self.v[1].w_b,
+            ),
+            _ => {
+                let p = self.v[0].a * self.v[0].w_a
+                    + self.v[1].a * self.v[1].w_a
+                    + self.v[2].a * self.v[2].w_a;
+                (p, p)
+            }
+        }
+    }
+
+    fn solve2(&mut self) {
+        let w1 = self.v[0].w;
+        let w2 = self.v[1].w;
+        let e12 = w2 - w1;
+        // w1 region
+        let d12_2 = -w1.dot(e12);
+        if d12_2 <= 0.0 {
+            self.v[0].a = 1.0;
+            self.count = 1;
+            return;
+        }
+        // w2 region
+        let d12_1 = w2.dot(e12);
+        if d12_1 <= 0.0 {
+            self.v[1].a = 1.0;
+            self.count = 1;
+            self.v[0] = self.v[1];
+            return;
+        }
+        // Inside the edge.
+        let inv = 1.0 / (d12_1 + d12_2);
+        self.v[0].a = d12_1 * inv;
+        self.v[1].a = d12_2 * inv;
+        self.count = 2;
+    }
+
+    fn solve3(&mut self) {
+        let w1 = self.v[0].w;
+        let w2 = self.v[1].w;
+        let w3 = self.v[2].w;
+
+        let e12 = w2 - w1;
+        let d12_1 = w2.dot(e12);
+        let d12_2 = -w1.dot(e12);
+
+        let e13 = w3 - w1;
+        let d13_1 = w3.dot(e13);
+        let d13_2 = -w1.dot(e13);
+
+        let e23 = w3 - w2;
+        let d23_1 = w3.dot(e23);
+        let d23_2 = -w2.dot(e23);
+
+        let n123 = cross(e12, e13);
+        let d123_1 = n123 * cross(w2, w3);
+        let d123_2 = n123 * cross(w3, w1);
+        let d123_3 = n123 * cross(w1, w2);
+
+        // w1 region
+        if d12_2 <= 0.0 && d13_2 <= 0.0 {
+            self.v[0].a = 1.0;
+            self.count = 1;
+            return;
+        }
+        // e12
+        if d12_1 > 0.0 && d12_2 > 0.0 && d123_3 <= 0.0 {
+            let inv = 1.0 / (d12_1 + d12_2);
+            self.v[0].a = d12_1 * inv;
+            self.v[1].a = d12_2 * inv;
+            self.count = 2;
+            return;
+        }
+        // e13
+        if d13_1 > 0.0 && d13_2 > 0.0 && d123_2 <= 0.0 {
+            let inv = 1.0 / (d13_1 + d13_2);
+            self.v[0].a = d13_1 * inv;
+            self.v[2].a = d13_2 * inv;
+            self.count = 2;
+            self.v[1] = self.v[2];
+            return;
+        }
+        // w2 region
+        if d12_1 <= 0.0 && d23_2 <= 0.0 {
+            self.v[1].a = 1.0;
+            self.count = 1;
+            self.v[0] = self.v[1];
+            return;
+        }
+        // w3 region
+        if d13_1 <= 0.0 && d23_1 <= 0.0 {
+            self.v[2].a = 1.0;
+            self.count = 1;
+            self.v[0] = self.v[2];
+            return;
+        }
+        // e23
+        if d23_1 > 0.0 && d23_2 > 0.0 && d123_1 <= 0.0 {
+            let inv = 1.0 / (d23_1 + d23_2);
+            self.v[1].a = d23_1 * inv;
+            self.v[2].a = d23_2 * inv;
+            self.count = 2;
+            self.v[0] = self.v[2];
+            return;
+        }
+        // Inside the triangle: the origin is in the Minkowski difference.
+        let inv = 1.0 / (d123_1 + d123_2 + d123_3);
+        self.v[0].a = d123_1 * inv;
+        self.v[1].a = d123_2 * inv;
+        self.v[2].a = d123_3 * inv;
+        self.count = 3;
+    }
+}
+
+/// The distance between two proxies, their closest points and features.
+///
+/// `cache` warm-starts the search and receives the final simplex; pass a default cache for a
+/// cold start. Never panics: a cache naming indices out of range is ignored.
+pub fn shape_distance(input: &DistanceInput<'_>, cache: &mut SimplexCache) -> DistanceOutput {
+    let a = input.proxy_a;
+    let b = input.proxy_b;
+    // Work in A's frame: the relative pose keeps coordinates small near far-away bodies.
+    let xf = relative_pose(input.pose_a, input.pose_b);
+    let mut simplex = Simplex::from_cache(cache, a, b, xf);
+
+    let mut save_a = [0u8; 3];
+    let mut save_b = [0u8; 3];
+    let mut iter = 0;
+    // The last search direction, used for the normal when the closest points coincide.
+    let mut last_dir = Vec2::ZERO;
+    while iter < GJK_MAX_ITERATIONS {
+        let save_count = simplex.count;
+        for i in 0..save_count {
+            save_a[i] = simplex.v[i].index_a;
+            save_b[i] = simplex.v[i].index_b;
+        }
+        match simplex.count {
+            2 => simplex.solve2(),
+            3 => simplex.solve3(),
+            _ => {}
+        }
+        if simplex.count == 3 {
+            break;
+        }
+        let d = simplex.search_direction();
+        // The origin lies on the simplex (touching cores): stop.
+        if d.dot(d) < f32::EPSILON * f32::EPSILON {
+            break;
+        }
+        last_dir = d;
+        // support(B, d) - support(A, -d)
+        let ia = a.support(-d);
+        let ib = b.support(xf.q.inv_rotate(d));
+        let vertex = &mut simplex.v[simplex.count];
+        vertex.index_a = ia as u8;
+        vertex.w_a = a.point(ia);
+        vertex.index_b = ib as u8;
+        vertex.w_b = xf.transform_point(b.point(ib));
+        vertex.w = vertex.w_b - vertex.w_a;
+        iter += 1;
+        // A repeated support point means no progress: the main termination criterion.
+        let duplicate = (0..save_count).any(|i| save_a[i] == ia as u8 && save_b[i] == ib as u8);
+        if duplicate {
+            break;
+        }
+        simplex.count += 1;
+    }
+
+    let (local_a, local_b) = simplex.witness_points();
+    *cache = simplex.to_cache();
+    let delta = local_b - local_a;
+    let mut distance = delta.length();
+    let local_normal = if simplex.count == 3 {
+        distance = 0.0;
+        Vec2::ZERO
+    } else if distance > f32::EPSILON {
+        delta / distance
+    } else {
+        // Touching cores: the search direction points from the origin toward B's side.
+        -last_dir.normalize_or_zero()
+    };
+    let pa = input.pose_a;
+    let mut point_a = pa.transform_point(local_a);
+    let mut point_b = pa.transform_point(local_b);
+    let normal = pa.q.rotate(local_normal);
+    if input.use_radii {
+        let ra = a.radius;
+        let rb = b.radius;
+        if simplex.count < 3 {
+            point_a += ra * normal;
+            point_b -= rb * normal;
+        }
+        distance -= ra + rb;
+    }
+    DistanceOutput {
+        point_a,
+        point_b,
+        normal,
+        distance,
+        iterations: iter,
+        simplex_count: simplex.count as u32,
+    }
+}

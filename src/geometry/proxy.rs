@@ -1,0 +1,107 @@
+//! The support-map proxy: all that GJK and the time of impact ask of a shape.
+//!
+//! A proxy is a small convex point set (the *core*) plus a radius; the shape is every point
+//! within the radius of the core's convex hull. Circles are one point, capsules and segments
+//! two, polygons up to [`MAX_POLYGON_VERTICES`]. The support function is a linear scan, which
+//! beats any hill-climbing at eight vertices.
+
+use glam::Vec2;
+
+use super::constants::MAX_POLYGON_VERTICES;
+use super::math::Pose;
+use super::shape::{Aabb, ShapeError};
+
+/// A convex point set plus a radius, in the shape's local frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ShapeProxy {
+    points: [Vec2; MAX_POLYGON_VERTICES],
+    count: u8,
+    /// The rounding radius around the core (m).
+    pub radius: f32,
+}
+
+impl ShapeProxy {
+    /// A proxy from 1 to [`MAX_POLYGON_VERTICES`] points and a radius, checked to be finite.
+    ///
+    /// The points need not be in any order nor be hull vertices: the support function only
+    /// ever returns hull vertices.
+    pub fn new(points: &[Vec2], radius: f32) -> Result<Self, ShapeError> {
+        if points.is_empty() {
+            return Err(ShapeError::TooFewPoints);
+        }
+        if points.len() > MAX_POLYGON_VERTICES {
+            return Err(ShapeError::TooManyPoints);
+        }
+        if !radius.is_finite() || points.iter().any(|p| !p.is_finite()) {
+            return Err(ShapeError::NonFinite);
+        }
+        if radius < 0.0 {
+            return Err(ShapeError::TooSmall);
+        }
+        Ok(Self::from_parts(points, radius))
+    }
+
+    /// Builds a proxy from points already validated by a shape constructor.
+    pub(crate) fn from_parts(points: &[Vec2], radius: f32) -> Self {
+        let mut p = [Vec2::ZERO; MAX_POLYGON_VERTICES];
+        p[..points.len()].copy_from_slice(points);
+        Self { points: p, count: points.len() as u8, radius }
+    }
+
+    /// The core points.
+    #[inline]
+    pub fn points(&self) -> &[Vec2] {
+        &self.points[..self.count as usize]
+    }
+
+    /// The number of core points.
+    #[inline]
+    pub fn count(&self) -> usize {
+        self.count as usize
+    }
+
+    /// The core point at `index`.
+    #[inline]
+    pub fn point(&self, index: usize) -> Vec2 {
+        self.points[index]
+    }
+
+    /// The index of the core point farthest along `direction` (the first one on ties, so the
+    /// answer is deterministic).
+    #[inline]
+    pub fn support(&self, direction: Vec2) -> usize {
+        let mut best = 0;
+        let mut best_value = direction.dot(self.points[0]);
+        for i in 1..self.count as usize {
+            let value = direction.dot(self.points[i]);
+            if value > best_value {
+                best = i;
+                best_value = value;
+            }
+        }
+        best
+    }
+
+    /// The bounding box of the proxy (core and radius) at `pose`.
+    pub fn aabb(&self, pose: Pose) -> Aabb {
+        let first = pose.transform_point(self.points[0]);
+        let mut lo = first;
+        let mut hi = first;
+        for &p in &self.points[1..self.count as usize] {
+            let w = pose.transform_point(p);
+            lo = lo.min(w);
+            hi = hi.max(w);
+        }
+        Aabb { min: lo, max: hi }.expanded(self.radius)
+    }
+
+    /// The largest distance from `center` to a core point (m), radius not included.
+    pub fn max_distance_from(&self, center: Vec2) -> f32 {
+        self.points().iter().map(|p| p.distance_squared(center)).fold(0.0, f32::max).sqrt()
+    }
+
+    /// True when every point and the radius are finite.
+    pub fn is_finite(&self) -> bool {
+        self.radius.is_finite() && self.points().iter().all(|p| p.is_finite())
+    }
+}

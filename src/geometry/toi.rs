@@ -1,0 +1,687 @@
+//! Time of impact by bilateral advancement, with certified separation.
+//!
+//! # The algorithm
+//!
+//! Erin Catto, "Continuous Collision", GDC 2013, and Box2D's `b2TimeOfImpact`:
+//!
+//! 1. At the current time `t1`, GJK gives the distance and closest features of the two cores.
+//!    Within `target ± tolerance` it is a hit at `t1`.
+//! 2. The closest features define a *separation function* `s(t)`: the distance along an axis
+//!    between the two shapes, the axis being fixed in the world (*points*: vertex–vertex) or
+//!    fixed to a face of A or of B (*face A*, *face B*).
+//! 3. *Push-back*: at the end of the interval `t2` find the deepest points along the axis; if
+//!    they are still farther apart than the target, the shapes are apart along this axis at
+//!    `t2`. Otherwise the deepest points are closer than the target at `t2` and (as `s` for
+//!    them is farther at `t1`) a bracketed root finder solves `s(t) = target` on `[t1, t2]`;
+//!    the root becomes the new `t2` and the deepest points at it are tried again. This loop
+//!    ends in at most one step per vertex.
+//! 4. Advance `t1 = t2` and repeat.
+//!
+//! # Certified separation (beyond Box2D)
+//!
+//! Step 3 looks at the shapes only at `t1`, `t2` and the root-finder samples. A body that
+//! rotates into a wall and back out between two of them (an even number of roots) is missed,
+//! which is why Box2D and Rapier cap the rotation per step. We don't: before `t1` jumps to
+//! `t2`, the skipped interval is *certified* to be free of contact.
+//!
+//! The separation function evaluated with the supports of both shapes,
+//! `S(t) = min_b n(t)·b(t) - max_a n(t)·a(t)`, is a lower bound of the core distance at every
+//! `t` (any axis separates the shapes by at least this). `S` is Lipschitz in `t` with a constant
+//! `L` that follows from the motion (normalised time, `v` the linear motion, `w` the rotation
+//! over the step, `R` the largest distance of a core point from its centre of mass,
+//! `D` the largest distance between the two centres on the interval):
+//!
+//! ```text
+//! points (axis fixed in the world):  L = |n·(vB - vA)| + |wA| RA + |wB| RB
+//! face of A (axis turns with A):     L = |wA| (D + RB) + |n(t1)·(vB - vA)|
+//!                                        + |vB - vA| |wA| (t2 - t1) + |wB| RB
+//! ```
+//!
+//! (for face A, `d/dt n·(b - cA) = wA perp(n)·(b - cA) + n·(vB - vA) + wB n·perp(R_B r)`,
+//! `|b - cA| <= D + RB`, and `n(t)` drifts from `n(t1)` by at most `|wA| (t - t1)`; face B is
+//! the mirror image). On `[ta, tb]` the Lipschitz bound gives
+//! `min S >= (S(ta) + S(tb) - L (tb - ta)) / 2`; where that is not above the contact level
+//! (`rA + rB`), the interval is bisected (a handful of cheap evaluations of `S`, no GJK) and
+//! `t1` only moves to the end of the certified prefix, from where GJK and a fresh separation
+//! function take over. For translation alone the points bound is exact, so certification costs
+//! two comparisons: the extra work lands only on bodies that turn fast near something.
+//!
+//! Tolerances derive from the slop (Box2D): `target = slop`, `tolerance = slop / 4`, both
+//! measured between the surfaces (radii included), so a hit leaves the shapes `slop ± slop/4`
+//! apart.
+
+use glam::Vec2;
+
+use super::constants::{
+    CERTIFY_MAX_EVALUATIONS, LINEAR_SLOP, MAX_POLYGON_VERTICES, MAX_WORLD_COORDINATE,
+    ROOT_MAX_ITERATIONS, TOI_MAX_ITERATIONS, separation_tolerance, target_separation,
+};
+use super::gjk::{DistanceInput, SimplexCache, shape_distance};
+use super::math::{Pose, Rot, right_perp};
+use super::proxy::ShapeProxy;
+use super::sweep::Sweep;
+
+/// Settings of a time-of-impact query.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ToiConfig {
+    /// The linear slop (m): the hit separation and the scale of every tolerance.
+    ///
+    /// The default is [`LINEAR_SLOP`] (0.005 m). Scale it with your length unit.
+    pub linear_slop: f32,
+}
+
+impl Default for ToiConfig {
+    fn default() -> Self {
+        Self { linear_slop: LINEAR_SLOP }
+    }
+}
+
+/// Input of [`time_of_impact`].
+#[derive(Clone, Copy, Debug)]
+pub struct ToiInput {
+    /// Shape A.
+    pub proxy_a: ShapeProxy,
+    /// Shape B.
+    pub proxy_b: ShapeProxy,
+    /// Motion of A over the step.
+    pub sweep_a: Sweep,
+    /// Motion of B over the step.
+    pub sweep_b: Sweep,
+    /// The search ends at this fraction of the step, in `[0, 1]`.
+    pub max_fraction: f32,
+    /// Tolerances.
+    pub config: ToiConfig,
+}
+
+impl ToiInput {
+    /// An input over the whole step with the default slop.
+    pub fn new(proxy_a: ShapeProxy, sweep_a: Sweep, proxy_b: ShapeProxy, sweep_b: Sweep) -> Self {
+        Self { proxy_a, proxy_b, sweep_a, sweep_b, max_fraction: 1.0, config: ToiConfig::default() }
+    }
+}
+
+/// Why a time-of-impact query failed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ToiFailure {
+    /// A sweep, proxy or setting holds NaN or infinity.
+    NonFinite,
+    /// A setting is out of range (slop not positive, `max_fraction` outside `[0, 1]`, negative
+    /// radius).
+    InvalidInput,
+    /// A coordinate is beyond [`MAX_WORLD_COORDINATE`].
+    CoordinatesTooLarge,
+    /// The advance loop ran [`TOI_MAX_ITERATIONS`] times without an answer.
+    IterationLimit,
+    /// The root finder could not bracket the separation (a numerical breakdown).
+    RootFinder,
+}
+
+/// The outcome of a time-of-impact query.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ToiState {
+    /// The shapes come within the target separation at `fraction`.
+    Hit,
+    /// The shapes stay apart over the whole interval (certified).
+    Separated,
+    /// The shapes overlap at the start; `fraction` is 0.
+    Overlapped,
+    /// No answer could be given; `fraction` is the last time known to be clear.
+    Failed(ToiFailure),
+}
+
+/// Output of [`time_of_impact`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ToiOutput {
+    /// What happened.
+    pub state: ToiState,
+    /// The fraction of the step: the impact for `Hit`, `max_fraction` for `Separated`, 0 for
+    /// `Overlapped`, the last clear time for `Failed`.
+    pub fraction: f32,
+    /// Contact point (world), midway between the surfaces; zero unless `Hit` or `Overlapped`.
+    pub point: Vec2,
+    /// Unit contact normal from A to B; zero unless `Hit` (or `Overlapped` with separate cores).
+    pub normal: Vec2,
+    /// Surface separation at `fraction` (m): about the slop for a hit, negative when
+    /// overlapped.
+    pub separation: f32,
+    /// Advance iterations (GJK calls).
+    pub iterations: u32,
+    /// Root-finder iterations, over all advances.
+    pub root_iterations: u32,
+    /// Evaluations spent certifying skipped intervals beyond the two free end points.
+    pub certify_evaluations: u32,
+}
+
+impl ToiOutput {
+    fn failed(failure: ToiFailure, fraction: f32) -> Self {
+        Self {
+            state: ToiState::Failed(failure),
+            fraction,
+            point: Vec2::ZERO,
+            normal: Vec2::ZERO,
+            separation: 0.0,
+            iterations: 0,
+            root_iterations: 0,
+            certify_evaluations: 0,
+        }
+    }
+}
+
+/// A sweep prepared for evaluation: origin-shifted, with its motion and reach precomputed.
+#[derive(Clone, Copy)]
+struct Motion {
+    c0: Vec2,
+    v: Vec2,
+    a0: f32,
+    w: f32,
+    local_center: Vec2,
+    q0: Rot,
+    /// Largest distance of a core point from the centre of mass (m).
+    reach: f32,
+}
+
+impl Motion {
+    fn new(sweep: &Sweep, origin: Vec2, proxy: &ShapeProxy) -> Self {
+        let w = sweep.a1 - sweep.a0;
+        // Reduce the start angle to [-pi, pi] so that sin/cos keep their precision; the
+        // rotation over the step is kept whole.
+        let a0 = sweep.a0 - (sweep.a0 / core::f32::consts::TAU).round() * core::f32::consts::TAU;
+        Self {
+            c0: sweep.c0 - origin,
+            v: sweep.c1 - sweep.c0,
+            a0,
+            w,
+            local_center: sweep.local_center,
+            q0: Rot::from_angle(a0),
+            reach: proxy.max_distance_from(sweep.local_center),
+        }
+    }
+
+    #[inline]
+    fn center(&self, t: f32) -> Vec2 {
+        self.c0 + t * self.v
+    }
+
+    #[inline]
+    fn pose(&self, t: f32) -> Pose {
+        let q = if self.w == 0.0 { self.q0 } else { Rot::from_angle(self.a0 + t * self.w) };
+        Pose { p: self.center(t) - q.rotate(self.local_center), q }
+    }
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+enum SeparationKind {
+    Points,
+    FaceA,
+    FaceB,
+}
+
+/// Box2D's `b2SeparationFunction`, plus the pieces the certification needs.
+struct SeparationFunction<'a> {
+    proxy_a: &'a ShapeProxy,
+    proxy_b: &'a ShapeProxy,
+    motion_a: &'a Motion,
+    motion_b: &'a Motion,
+    kind: SeparationKind,
+    /// Face point in its body frame (faces only).
+    local_point: Vec2,
+    /// The axis: world for points, body-local for faces.
+    axis: Vec2,
+    /// For faces: how far the face body's own support along the axis lies beyond the face
+    /// point (0 for an outward face normal). Subtracting it turns the witness separation into
+    /// the rigorous lower bound `S`.
+    face_excess: f32,
+}
+
+impl<'a> SeparationFunction<'a> {
+    fn new(
+        cache: &SimplexCache,
+        proxy_a: &'a ShapeProxy,
+        motion_a: &'a Motion,
+        proxy_b: &'a ShapeProxy,
+        motion_b: &'a Motion,
+        xf_a: Pose,
+        xf_b: Pose,
+    ) -> Self {
+        let mut f = Self {
+            proxy_a,
+            proxy_b,
+            motion_a,
+            motion_b,
+            kind: SeparationKind::Points,
+            local_point: Vec2::ZERO,
+            axis: Vec2::ZERO,
+            face_excess: 0.0,
+        };
+        let ia0 = cache.index_a[0] as usize;
+        let ib0 = cache.index_b[0] as usize;
+        if cache.count == 1 {
+            let pa = xf_a.transform_point(proxy_a.point(ia0));
+            let pb = xf_b.transform_point(proxy_b.point(ib0));
+            f.axis = (pb - pa).normalize_or_zero();
+            if f.axis == Vec2::ZERO {
+                f.axis = Vec2::X;
+            }
+            return f;
+        }
+        let ia1 = cache.index_a[1] as usize;
+        let ib1 = cache.index_b[1] as usize;
+        if ia0 == ia1 {
+            // Two points on B, one on A: a face of B.
+            f.kind = SeparationKind::FaceB;
+            let b1 = proxy_b.point(ib0);
+            let b2 = proxy_b.point(ib1);
+            f.axis = right_perp(b2 - b1).normalize_or_zero();
+            f.local_point = 0.5 * (b1 + b2);
+            let normal = xf_b.q.rotate(f.axis);
+            let pb = xf_b.transform_point(f.local_point);
+            let pa = xf_a.transform_point(proxy_a.point(ia0));
+            if (pa - pb).dot(normal) < 0.0 {
+                f.axis = -f.axis;
+            }
+            let top = proxy_b.point(proxy_b.support(f.axis));
+            f.face_excess = f.axis.dot(top - f.local_point).max(0.0);
+        } else {
+            // Two points on A, one or two on B: a face of A.
+            f.kind = SeparationKind::FaceA;
+            let a1 = proxy_a.point(ia0);
+            let a2 = proxy_a.point(ia1);
+            f.axis = right_perp(a2 - a1).normalize_or_zero();
+            f.local_point = 0.5 * (a1 + a2);
+            let normal = xf_a.q.rotate(f.axis);
+            let pa = xf_a.transform_point(f.local_point);
+            let pb = xf_b.transform_point(proxy_b.point(ib0));
+            if (pb - pa).dot(normal) < 0.0 {
+                f.axis = -f.axis;
+            }
+            let top = proxy_a.point(proxy_a.support(f.axis));
+            f.face_excess = f.axis.dot(top - f.local_point).max(0.0);
+        }
+        if f.axis == Vec2::ZERO {
+            // A zero-length face (coincident cache points): fall back to a points axis.
+            f.kind = SeparationKind::Points;
+            let pa = xf_a.transform_point(proxy_a.point(ia0));
+            let pb = xf_b.transform_point(proxy_b.point(ib0));
+            f.axis = (pb - pa).normalize_or(Vec2::X);
+        }
+        f
+    }
+
+    /// The deepest points at the given poses and their separation along the axis, plus the
+    /// rigorous lower bound `S` of the core distance.
+    #[inline]
+    fn min_separation_at(&self, xf_a: Pose, xf_b: Pose) -> (usize, usize, f32, f32) {
+        match self.kind {
+            SeparationKind::Points => {
+                let ia = self.proxy_a.support(xf_a.q.inv_rotate(self.axis));
+                let ib = self.proxy_b.support(xf_b.q.inv_rotate(-self.axis));
+                let pa = xf_a.transform_point(self.proxy_a.point(ia));
+                let pb = xf_b.transform_point(self.proxy_b.point(ib));
+                let s = (pb - pa).dot(self.axis);
+                (ia, ib, s, s)
+            }
+            SeparationKind::FaceA => {
+                let normal = xf_a.q.rotate(self.axis);
+                let pa = xf_a.transform_point(self.local_point);
+                let ib = self.proxy_b.support(xf_b.q.inv_rotate(-normal));
+                let pb = xf_b.transform_point(self.proxy_b.point(ib));
+                let s = (pb - pa).dot(normal);
+                (usize::MAX, ib, s, s - self.face_excess)
+            }
+            SeparationKind::FaceB => {
+                let normal = xf_b.q.rotate(self.axis);
+                let pb = xf_b.transform_point(self.local_point);
+                let ia = self.proxy_a.support(xf_a.q.inv_rotate(-normal));
+                let pa = xf_a.transform_point(self.proxy_a.point(ia));
+                let s = (pa - pb).dot(normal);
+                (ia, usize::MAX, s, s - self.face_excess)
+            }
+        }
+    }
+
+    #[inline]
+    fn min_separation(&self, t: f32) -> (usize, usize, f32, f32) {
+        self.min_separation_at(self.motion_a.pose(t), self.motion_b.pose(t))
+    }
+
+    #[inline]
+    fn lower_bound(&self, t: f32) -> f32 {
+        self.min_separation(t).3
+    }
+
+    /// The separation of the given witness points at `t`.
+    #[inline]
+    fn evaluate(&self, ia: usize, ib: usize, t: f32) -> f32 {
+        let xf_a = self.motion_a.pose(t);
+        let xf_b = self.motion_b.pose(t);
+        match self.kind {
+            SeparationKind::Points => {
+                let pa = xf_a.transform_point(self.proxy_a.point(ia));
+                let pb = xf_b.transform_point(self.proxy_b.point(ib));
+                (pb - pa).dot(self.axis)
+            }
+            SeparationKind::FaceA => {
+                let normal = xf_a.q.rotate(self.axis);
+                let pa = xf_a.transform_point(self.local_point);
+                let pb = xf_b.transform_point(self.proxy_b.point(ib));
+                (pb - pa).dot(normal)
+            }
+            SeparationKind::FaceB => {
+                let normal = xf_b.q.rotate(self.axis);
+                let pb = xf_b.transform_point(self.local_point);
+                let pa = xf_a.transform_point(self.proxy_a.point(ia));
+                (pa - pb).dot(normal)
+            }
+        }
+    }
+
+    /// A Lipschitz constant of `S` on `[t1, t2]` (metres per unit of step fraction); the
+    /// derivation is in the module documentation.
+    fn lipschitz(&self, t1: f32, t2: f32, xf_a1: Pose, xf_b1: Pose) -> f32 {
+        let ma = self.motion_a;
+        let mb = self.motion_b;
+        let v_rel = mb.v - ma.v;
+        let wa = ma.w.abs();
+        let wb = mb.w.abs();
+        match self.kind {
+            SeparationKind::Points => {
+                self.axis.dot(v_rel).abs() + wa * ma.reach + wb * mb.reach
+            }
+            SeparationKind::FaceA | SeparationKind::FaceB => {
+                let d = (mb.center(t1) - ma.center(t1))
+                    .length()
+                    .max((mb.center(t2) - ma.center(t2)).length());
+                // The face body turns the axis; the other body's points sweep around it.
+                let (w_face, w_other, reach_other, n1) = if self.kind == SeparationKind::FaceA {
+                    (wa, wb, mb.reach, xf_a1.q.rotate(self.axis))
+                } else {
+                    (wb, wa, ma.reach, xf_b1.q.rotate(self.axis))
+                };
+                w_face * (d + reach_other)
+                    + n1.dot(v_rel).abs()
+                    + v_rel.length() * w_face * (t2 - t1)
+                    + w_other * reach_other
+            }
+        }
+    }
+}
+
+/// Solves `s(t) = target` on `[a1, a2]` where `s(a1) > target > s(a2)`, alternating bisection
+/// and false position as Box2D does (bisection guarantees the bracket halves every other step,
+/// false position converges fast where `s` is smooth). Returns the root and the iterations,
+/// or the left end of the last bracket (where `s > target`, so still clear) if the iterations
+/// ran out.
+#[inline]
+fn find_root(
+    f: &SeparationFunction<'_>,
+    ia: usize,
+    ib: usize,
+    target: f32,
+    tolerance: f32,
+    mut a1: f32,
+    mut s1: f32,
+    mut a2: f32,
+    mut s2: f32,
+) -> (f32, u32) {
+    let mut iterations = 0;
+    loop {
+        let t = if iterations & 1 == 1 {
+            // False position (the secant through the bracket ends).
+            a1 + (target - s1) * (a2 - a1) / (s2 - s1)
+        } else {
+            0.5 * (a1 + a2)
+        };
+        iterations += 1;
+        let s = f.evaluate(ia, ib, t);
+        if (s - target).abs() < tolerance {
+            return (t, iterations);
+        }
+        if s > target {
+            a1 = t;
+            s1 = s;
+        } else {
+            a2 = t;
+            s2 = s;
+        }
+        if iterations == ROOT_MAX_ITERATIONS || a2 - a1 <= f32::EPSILON * a2 {
+            return (a1, iterations);
+        }
+    }
+}
+
+/// The end of the longest prefix of `[t1, t2]` on which `S >= level` is proven, given `S` at
+/// both ends and a Lipschitz constant. Spends at most [`CERTIFY_MAX_EVALUATIONS`] evaluations
+/// of `S` on bisection. Always returns more than `t1` when `s1 > level` and `lipschitz` is
+/// finite.
+fn certify(
+    f: &SeparationFunction<'_>,
+    t1: f32,
+    s1: f32,
+    t2: f32,
+    s2: f32,
+    lipschitz: f32,
+    level: f32,
+    evaluations: &mut u32,
+) -> f32 {
+    let covered = |sa: f32, sb: f32, len: f32| 0.5 * (sa + sb - lipschitz * len) >= level;
+    if covered(s1, s2, t2 - t1) {
+        return t2;
+    }
+    // Depth-first, earliest sub-interval first, so the certified prefix grows left to right.
+    const MAX_DEPTH: u32 = 10;
+    let mut stack: [(f32, f32, f32, f32, u32); MAX_DEPTH as usize + 1] =
+        [(0.0, 0.0, 0.0, 0.0, 0); MAX_DEPTH as usize + 1];
+    stack[0] = (t1, s1, t2, s2, 0);
+    let mut len = 1;
+    let mut spent = 0;
+    while len > 0 {
+        len -= 1;
+        let (a, sa, b, sb, depth) = stack[len];
+        if covered(sa, sb, b - a) {
+            continue;
+        }
+        if sa <= level || depth == MAX_DEPTH || spent == CERTIFY_MAX_EVALUATIONS {
+            // Stop here: [t1, a] is certified; extend it one-sidedly from `a`.
+            *evaluations += spent;
+            if sa <= level || lipschitz <= 0.0 {
+                return a;
+            }
+            return (a + (sa - level) / lipschitz).min(b);
+        }
+        let m = 0.5 * (a + b);
+        let sm = f.lower_bound(m);
+        spent += 1;
+        stack[len] = (m, sm, b, sb, depth + 1);
+        stack[len + 1] = (a, sa, m, sm, depth + 1);
+        len += 2;
+    }
+    *evaluations += spent;
+    t2
+}
+
+fn validate(input: &ToiInput) -> Result<(), ToiFailure> {
+    let slop = input.config.linear_slop;
+    let t_max = input.max_fraction;
+    if !slop.is_finite() || !t_max.is_finite() {
+        return Err(ToiFailure::NonFinite);
+    }
+    if slop <= 0.0 || !(0.0..=1.0).contains(&t_max) {
+        return Err(ToiFailure::InvalidInput);
+    }
+    for (sweep, proxy) in [(&input.sweep_a, &input.proxy_a), (&input.sweep_b, &input.proxy_b)] {
+        if !sweep.is_finite() || !proxy.is_finite() {
+            return Err(ToiFailure::NonFinite);
+        }
+        if proxy.radius < 0.0 || proxy.count() == 0 || proxy.count() > MAX_POLYGON_VERTICES {
+            return Err(ToiFailure::InvalidInput);
+        }
+        let big = [sweep.c0, sweep.c1, sweep.local_center]
+            .iter()
+            .map(|v| v.abs().max_element())
+            .chain(proxy.points().iter().map(|p| p.abs().max_element()))
+            .chain([proxy.radius, sweep.a0.abs(), sweep.a1.abs()])
+            .fold(0.0, f32::max);
+        if big > MAX_WORLD_COORDINATE {
+            return Err(ToiFailure::CoordinatesTooLarge);
+        }
+    }
+    Ok(())
+}
+
+/// The first time in `[0, max_fraction]` at which two moving convex shapes come within the
+/// target separation (`slop`), by bilateral advancement with certified separation.
+///
+/// Never panics. Bad input (NaN, infinity, coordinates beyond [`MAX_WORLD_COORDINATE`], a
+/// negative radius, a slop that is not positive) gives [`ToiState::Failed`].
+///
+/// ```
+/// use bevy_ccd::geometry::{Circle, Polygon, Shape, Sweep, ToiInput, ToiState, time_of_impact};
+/// use glam::Vec2;
+/// // A 0.1 m ball fired at 100 m per step at a wall 5 m away.
+/// let ball = Shape::from(Circle::new(0.1).unwrap()).proxy();
+/// let wall = Shape::from(Polygon::rectangle(0.005, 10.0).unwrap()).proxy();
+/// let ball_sweep = Sweep::new(Vec2::ZERO, Vec2::ZERO, 0.0, Vec2::new(100.0, 0.0), 0.0);
+/// let wall_sweep = Sweep::stationary(Vec2::ZERO, Vec2::new(5.0, 0.0), 0.0);
+/// let out = time_of_impact(&ToiInput::new(ball, ball_sweep, wall, wall_sweep));
+/// assert_eq!(out.state, ToiState::Hit);
+/// // Contact at x = 5 - 0.005 - 0.1, minus the slop.
+/// assert!((out.fraction * 100.0 - (5.0 - 0.105 - 0.005)).abs() < 0.002);
+/// ```
+pub fn time_of_impact(input: &ToiInput) -> ToiOutput {
+    if let Err(failure) = validate(input) {
+        return ToiOutput::failed(failure, 0.0);
+    }
+    let proxy_a = &input.proxy_a;
+    let proxy_b = &input.proxy_b;
+    // Work relative to A's start: far from the world origin, differences of nearby large
+    // coordinates are exact in f32 (Sterbenz), so the query keeps its precision.
+    let origin = input.sweep_a.c0;
+    let motion_a = Motion::new(&input.sweep_a, origin, proxy_a);
+    let motion_b = Motion::new(&input.sweep_b, origin, proxy_b);
+
+    let t_max = input.max_fraction;
+    let total_radius = proxy_a.radius + proxy_b.radius;
+    let slop = input.config.linear_slop;
+    // Targets on the core distance: the surfaces end `slop ± slop/4` apart.
+    let target = total_radius + target_separation(slop);
+    let tolerance = separation_tolerance(slop);
+    // Skipped intervals must keep the surfaces at least `target - tolerance` apart: then every
+    // time the advance stops at is still outside the hit band or inside it, never past it, and
+    // a hit always lands in `target ± tolerance`.
+    let contact_level = target - tolerance;
+
+    let mut out = ToiOutput::failed(ToiFailure::IterationLimit, 0.0);
+    let mut cache = SimplexCache::default();
+    let mut t1 = 0.0f32;
+
+    loop {
+        let xf_a = motion_a.pose(t1);
+        let xf_b = motion_b.pose(t1);
+        let distance = shape_distance(
+            &DistanceInput { proxy_a, proxy_b, pose_a: xf_a, pose_b: xf_b, use_radii: false },
+            &mut cache,
+        );
+        out.iterations += 1;
+        out.fraction = t1;
+
+        let touching = distance.distance < target + tolerance;
+        if touching || distance.simplex_count == 3 {
+            let n = distance.normal;
+            let surface_a = distance.point_a + proxy_a.radius * n;
+            let surface_b = distance.point_b - proxy_b.radius * n;
+            out.point = 0.5 * (surface_a + surface_b) + origin;
+            out.normal = n;
+            out.separation = distance.distance - total_radius;
+            out.state = if t1 == 0.0 && out.separation <= 0.0 {
+                ToiState::Overlapped
+            } else {
+                ToiState::Hit
+            };
+            return out;
+        }
+        if t1 >= t_max {
+            out.state = ToiState::Separated;
+            out.fraction = t_max;
+            return out;
+        }
+        if out.iterations >= TOI_MAX_ITERATIONS {
+            out.state = ToiState::Failed(ToiFailure::IterationLimit);
+            return out;
+        }
+
+        let f = SeparationFunction::new(&cache, proxy_a, &motion_a, proxy_b, &motion_b, xf_a, xf_b);
+        let s1_bound = f.min_separation_at(xf_a, xf_b).3;
+
+        // Push-back: resolve the deepest points, at most once per vertex.
+        let mut t2 = t_max;
+        let mut s2_bound = f32::NAN;
+        let mut advance = true;
+        let mut clear_at_end = false;
+        for _ in 0..MAX_POLYGON_VERTICES {
+            let (ia, ib, s2, bound) = f.min_separation(t2);
+            s2_bound = bound;
+            if s2 > target + tolerance {
+                clear_at_end = t2 >= t_max;
+                break;
+            }
+            if s2 > target - tolerance {
+                break;
+            }
+            let s1 = f.evaluate(ia, ib, t1);
+            if s1 < target - tolerance {
+                // The witness points are already too close at t1 although GJK says the shapes
+                // are apart: rounding. Advance only as far as can be certified.
+                advance = false;
+                break;
+            }
+            if s1 <= target + tolerance {
+                // Touching along the axis at t1 (GJK is just outside the band): a hit.
+                out.point = 0.5 * (distance.point_a + distance.point_b) + origin;
+                out.normal = distance.normal;
+                out.separation = distance.distance - total_radius;
+                out.state = ToiState::Hit;
+                return out;
+            }
+            let (root, iterations) = find_root(&f, ia, ib, target, tolerance, t1, s1, t2, s2);
+            out.root_iterations += iterations;
+            if root <= t1 {
+                advance = false;
+                break;
+            }
+            t2 = root;
+            s2_bound = f32::NAN;
+        }
+        if advance && s2_bound.is_nan() {
+            s2_bound = f.lower_bound(t2);
+        }
+
+        let lipschitz = f.lipschitz(t1, if advance { t2 } else { t_max }, xf_a, xf_b);
+        let reached = if advance {
+            certify(
+                &f,
+                t1,
+                s1_bound,
+                t2,
+                s2_bound,
+                lipschitz,
+                contact_level,
+                &mut out.certify_evaluations,
+            )
+        } else if lipschitz > 0.0 && s1_bound > contact_level {
+            (t1 + (s1_bound - contact_level) / lipschitz).min(t_max)
+        } else {
+            t1
+        };
+        if reached <= t1 {
+            // Nothing could be certified: f32 has run out of resolution here.
+            out.state = ToiState::Failed(ToiFailure::RootFinder);
+            return out;
+        }
+        if advance && reached >= t2 && clear_at_end {
+            out.state = ToiState::Separated;
+            out.fraction = t_max;
+            return out;
+        }
+        t1 = reached;
+    }
+}
