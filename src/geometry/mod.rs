@@ -1,17 +1,25 @@
 //! The geometry layer: shapes, GJK, sweeps, time of impact and the static bounding-volume
 //! hierarchy. Plain Rust with no ECS imports, so it can be used (and tested) on its own.
 
+mod bvh;
 pub mod constants;
 mod gjk;
 mod math;
 mod proxy;
+mod resolve;
 mod shape;
 mod sweep;
 mod toi;
 
+pub use bvh::Bvh;
 pub use gjk::{DistanceInput, DistanceOutput, SimplexCache, shape_distance};
 pub use math::{Pose, Rot, cross, left_perp, right_perp};
+pub use constants::{LINEAR_SLOP, MAX_POLYGON_VERTICES, MAX_WORLD_COORDINATE};
 pub use proxy::ShapeProxy;
+pub use resolve::{
+    BodyResult, BodyState, ImpactRecord, ResolveMode, SolveSettings, StaticItem, StaticSet,
+    contact_response, solve_body,
+};
 pub use shape::{Aabb, Capsule, Circle, MassProperties, Polygon, Segment, Shape, ShapeError};
 pub use sweep::Sweep;
 pub use toi::{ToiConfig, ToiFailure, ToiInput, ToiOutput, ToiState, time_of_impact};

@@ -95,6 +95,40 @@ impl ShapeProxy {
         Aabb { min: lo, max: hi }.expanded(self.radius)
     }
 
+    /// A box holding the proxy at every pose of `sweep`, whatever its rotation.
+    ///
+    /// Without rotation it is the union of the boxes at both ends (exact for translation). With
+    /// rotation every core point stays within `reach` of the centre of mass, which moves on a
+    /// straight line, so the box of that segment grown by `reach + radius` holds the shape.
+    pub fn swept_aabb(&self, sweep: &super::sweep::Sweep) -> Aabb {
+        if sweep.a0 == sweep.a1 {
+            self.aabb(sweep.pose_at(0.0)).union(self.aabb(sweep.pose_at(1.0)))
+        } else {
+            let reach = self.max_distance_from(sweep.local_center) + self.radius;
+            Aabb::from_corners(sweep.c0, sweep.c1).expanded(reach)
+        }
+    }
+
+    /// The radius of a disc around `center` that fits inside the shape (m): the distance to the
+    /// nearest edge line plus the radius for polygons, the radius for circles, capsules and
+    /// segments. Used for the core-shape fallback of bodies that start inside a target.
+    pub fn inner_radius(&self, center: Vec2) -> f32 {
+        let n = self.count();
+        if n < 3 {
+            return self.radius;
+        }
+        let mut inner = f32::INFINITY;
+        for i in 0..n {
+            let a = self.points[i];
+            let e = self.points[(i + 1) % n] - a;
+            let len = e.length();
+            if len > 0.0 {
+                inner = inner.min(super::math::cross(e, center - a).abs() / len);
+            }
+        }
+        if inner.is_finite() { inner + self.radius } else { self.radius }
+    }
+
     /// The largest distance from `center` to a core point (m), radius not included.
     pub fn max_distance_from(&self, center: Vec2) -> f32 {
         self.points().iter().map(|p| p.distance_squared(center)).fold(0.0, f32::max).sqrt()

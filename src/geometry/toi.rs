@@ -68,11 +68,17 @@ pub struct ToiConfig {
     ///
     /// The default is [`LINEAR_SLOP`] (0.005 m). Scale it with your length unit.
     pub linear_slop: f32,
+    /// The surface separation (m) at which to report a hit, overriding the slop.
+    ///
+    /// The default is `None`: the slop. The plugin lowers it for a body that starts a step
+    /// touching a wall and slides along it, so that the contact it already has does not stop it.
+    /// May be negative (a hit at that penetration) as long as the cores stay apart.
+    pub target_separation: Option<f32>,
 }
 
 impl Default for ToiConfig {
     fn default() -> Self {
-        Self { linear_slop: LINEAR_SLOP }
+        Self { linear_slop: LINEAR_SLOP, target_separation: None }
     }
 }
 
@@ -502,7 +508,8 @@ fn certify(
 fn validate(input: &ToiInput) -> Result<(), ToiFailure> {
     let slop = input.config.linear_slop;
     let t_max = input.max_fraction;
-    if !slop.is_finite() || !t_max.is_finite() {
+    let target_ok = input.config.target_separation.is_none_or(f32::is_finite);
+    if !slop.is_finite() || !t_max.is_finite() || !target_ok {
         return Err(ToiFailure::NonFinite);
     }
     if slop <= 0.0 || !(0.0..=1.0).contains(&t_max) {
@@ -562,9 +569,11 @@ pub fn time_of_impact(input: &ToiInput) -> ToiOutput {
     let t_max = input.max_fraction;
     let total_radius = proxy_a.radius + proxy_b.radius;
     let slop = input.config.linear_slop;
-    // Targets on the core distance: the surfaces end `slop ± slop/4` apart.
-    let target = total_radius + target_separation(slop);
+    // Targets on the core distance: the surfaces end `slop ± slop/4` apart. A lowered target
+    // never asks the cores to come closer than the tolerance: GJK measures no penetration.
     let tolerance = separation_tolerance(slop);
+    let target_surface = input.config.target_separation.unwrap_or(target_separation(slop));
+    let target = (total_radius + target_surface).max(2.0 * tolerance);
     // Skipped intervals must keep the surfaces at least `target - tolerance` apart: then every
     // time the advance stops at is still outside the hit band or inside it, never past it, and
     // a hit always lands in `target ± tolerance`.
@@ -592,7 +601,9 @@ pub fn time_of_impact(input: &ToiInput) -> ToiOutput {
             out.point = 0.5 * (surface_a + surface_b) + origin;
             out.normal = n;
             out.separation = distance.distance - total_radius;
-            out.state = if t1 == 0.0 && out.separation <= 0.0 {
+            let overlapped = distance.simplex_count == 3
+                || out.separation <= 0.0f32.min(target - total_radius - tolerance);
+            out.state = if t1 == 0.0 && overlapped {
                 ToiState::Overlapped
             } else {
                 ToiState::Hit

@@ -1,0 +1,412 @@
+//! One body's continuous collision step against the static world: time of impact against
+//! every candidate, earliest hit wins, then clamp or sub-step with an impulse response.
+//!
+//! Plain Rust: the plugin gathers a [`BodyState`] per body, calls [`solve_body`] (in parallel,
+//! each body independent of the others) and writes the [`BodyResult`] back.
+
+use glam::Vec2;
+use smallvec::SmallVec;
+
+use super::bvh::Bvh;
+use super::constants::separation_tolerance;
+use super::math::{Pose, cross, left_perp};
+use super::proxy::ShapeProxy;
+use super::shape::Aabb;
+use super::sweep::Sweep;
+use super::toi::{ToiConfig, ToiFailure, ToiInput, ToiState, time_of_impact};
+
+/// How a body is resolved once it hits something.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ResolveMode {
+    /// The body stops at its impact; the rest of the step's motion is lost.
+    Clamp,
+    /// The body advances to its impact, responds, and spends the rest of the step from there,
+    /// up to `max_substeps` times; past that it is clamped.
+    SubStep {
+        /// The most impacts handled in one step before clamping.
+        max_substeps: u32,
+    },
+}
+
+/// Settings shared by every body of a step.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SolveSettings {
+    /// Clamp or sub-step.
+    pub mode: ResolveMode,
+    /// Linear slop (m).
+    pub linear_slop: f32,
+    /// Length of the step (s), positive and finite.
+    pub dt: f32,
+}
+
+/// One static target.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StaticItem {
+    /// Shape in the target's frame.
+    pub proxy: ShapeProxy,
+    /// Where the target is.
+    pub position: Vec2,
+    /// Its angle (radians).
+    pub angle: f32,
+}
+
+/// The static world: targets and their bounding-volume hierarchy.
+#[derive(Clone, Debug, Default)]
+pub struct StaticSet {
+    items: Vec<StaticItem>,
+    bvh: Bvh,
+    scratch: Vec<(u32, Aabb)>,
+}
+
+impl StaticSet {
+    /// Replaces every target; target `i` of the slice gets index `i`.
+    pub fn rebuild(&mut self, items: impl IntoIterator<Item = StaticItem>) {
+        self.items.clear();
+        self.items.extend(items);
+        self.scratch.clear();
+        for (i, item) in self.items.iter().enumerate() {
+            let pose = Pose::new(item.position, item.angle);
+            self.scratch.push((i as u32, item.proxy.aabb(pose)));
+        }
+        self.bvh.build(&self.scratch);
+    }
+
+    /// The targets.
+    pub fn items(&self) -> &[StaticItem] {
+        &self.items
+    }
+
+    /// The hierarchy over the targets.
+    pub fn bvh(&self) -> &Bvh {
+        &self.bvh
+    }
+
+    /// Appends to `out` the targets whose boxes overlap the swept box of `proxy` over `sweep`
+    /// (grown by `margin`), in ascending index order.
+    pub fn candidates(&self, proxy: &ShapeProxy, sweep: &Sweep, margin: f32, out: &mut Vec<u32>) {
+        let bounds = proxy.swept_aabb(sweep).expanded(margin);
+        self.bvh.query(&bounds, out);
+    }
+}
+
+/// A body as the solver needs it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BodyState {
+    /// Shape in the body frame.
+    pub proxy: ShapeProxy,
+    /// Centre of mass in the body frame (m).
+    pub local_center: Vec2,
+    /// Mass (kg), positive.
+    pub mass: f32,
+    /// Rotational inertia about the centre of mass (kg m²), positive.
+    pub inertia: f32,
+    /// Restitution in `[0, 1]`.
+    pub restitution: f32,
+    /// Coulomb friction coefficient.
+    pub friction: f32,
+    /// Motion over the step, from the start pose to where the user moved the body.
+    pub sweep: Sweep,
+    /// The body's own velocity (m/s, rad/s), if it keeps one; otherwise the response acts on
+    /// the velocity implied by the step's displacement.
+    pub velocity: Option<(Vec2, f32)>,
+    /// Radius of the core circle used when the body starts a step deep in a target
+    /// (Box2D's fallback: a quarter of the shape's smallest extent).
+    pub core_radius: f32,
+}
+
+/// One impact found for a body.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ImpactRecord {
+    /// Index of the target in the [`StaticSet`].
+    pub target: u32,
+    /// Fraction of the whole step at which it happened.
+    pub fraction: f32,
+    /// Contact point (world).
+    pub point: Vec2,
+    /// Unit normal from the target toward the body.
+    pub normal: Vec2,
+}
+
+/// What the solver did with a body.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BodyResult {
+    /// Final body origin.
+    pub position: Vec2,
+    /// Final angle (radians, unwrapped).
+    pub angle: f32,
+    /// New velocity, when the body keeps one.
+    pub velocity: Option<(Vec2, f32)>,
+    /// Impacts in time order.
+    pub impacts: SmallVec<[ImpactRecord; 2]>,
+    /// Sub-steps spent after impacts.
+    pub substeps: u32,
+    /// The body started the step overlapping a target.
+    pub started_overlapping: bool,
+    /// A time-of-impact failure (the body was clamped at the last clear time).
+    pub failure: Option<ToiFailure>,
+}
+
+enum PairOutcome {
+    Clear { overlapping: bool },
+    Hit { fraction: f32, point: Vec2, normal: Vec2, overlapping: bool },
+    Failed { fraction: f32, failure: ToiFailure },
+}
+
+/// Whether the contact point at the start of `sweep` moves toward the target along `normal`
+/// (from the body toward the target) by more than `threshold` metres over the sweep.
+///
+/// The threshold keeps rounding noise (a contact whose normal speed was just zeroed by the
+/// response) from counting as an approach; an approach below it is handled by the lowered
+/// target, which bounds how far it can sink.
+fn approaching(sweep: &Sweep, point: Vec2, normal: Vec2, threshold: f32) -> bool {
+    let r = point - sweep.c0;
+    let v = sweep.linear_motion() + sweep.angular_motion() * left_perp(r);
+    v.dot(normal) > threshold
+}
+
+/// The time of impact of the body against one target, with the handling of bodies that start
+/// the step touching or inside it:
+///
+/// - touching or shallowly overlapping, moving deeper: a hit at 0 (the motion is stopped);
+/// - touching or shallowly overlapping, moving apart or along: the target separation is
+///   lowered to just below the current one (never below `-slop / 2`), so the body may slide
+///   but not sink;
+/// - cores overlapping (deep): Box2D's fallback, the same query with a small circle at the
+///   centre of mass; if even that overlaps, the motion is let through and flagged.
+fn pair_toi(body: &BodyState, sweep: &Sweep, target: &StaticItem, slop: f32) -> PairOutcome {
+    let target_sweep = Sweep::stationary(Vec2::ZERO, target.position, target.angle);
+    let mut input = ToiInput::new(body.proxy, *sweep, target.proxy, target_sweep);
+    input.config = ToiConfig { linear_slop: slop, target_separation: None };
+    let out = time_of_impact(&input);
+    match out.state {
+        ToiState::Separated => PairOutcome::Clear { overlapping: false },
+        ToiState::Hit if out.fraction > 0.0 => PairOutcome::Hit {
+            fraction: out.fraction,
+            point: out.point,
+            normal: out.normal,
+            overlapping: false,
+        },
+        ToiState::Failed(failure) => PairOutcome::Failed { fraction: out.fraction, failure },
+        ToiState::Hit | ToiState::Overlapped => {
+            let overlapping = out.separation < 0.0;
+            if out.normal == Vec2::ZERO {
+                return core_fallback(body, sweep, slop, input);
+            }
+            if approaching(sweep, out.point, out.normal, 0.01 * separation_tolerance(slop)) {
+                return PairOutcome::Hit {
+                    fraction: 0.0,
+                    point: out.point,
+                    normal: out.normal,
+                    overlapping,
+                };
+            }
+            let tolerance = separation_tolerance(slop);
+            let relaxed = (out.separation.min(slop) - tolerance).max(-0.5 * slop);
+            input.config.target_separation = Some(relaxed);
+            let out2 = time_of_impact(&input);
+            match out2.state {
+                ToiState::Separated => PairOutcome::Clear { overlapping },
+                ToiState::Hit | ToiState::Overlapped => PairOutcome::Hit {
+                    fraction: out2.fraction,
+                    point: out2.point,
+                    normal: if out2.normal == Vec2::ZERO { out.normal } else { out2.normal },
+                    overlapping,
+                },
+                ToiState::Failed(failure) => {
+                    PairOutcome::Failed { fraction: out2.fraction, failure }
+                }
+            }
+        }
+    }
+}
+
+fn core_fallback(
+    body: &BodyState,
+    sweep: &Sweep,
+    slop: f32,
+    mut input: ToiInput,
+) -> PairOutcome {
+    input.proxy_a = ShapeProxy::from_parts(&[body.local_center], body.core_radius);
+    let out = time_of_impact(&input);
+    match out.state {
+        ToiState::Separated => PairOutcome::Clear { overlapping: true },
+        ToiState::Hit if out.fraction > 0.0 => PairOutcome::Hit {
+            fraction: out.fraction,
+            point: out.point,
+            normal: out.normal,
+            overlapping: true,
+        },
+        ToiState::Failed(failure) => PairOutcome::Failed { fraction: out.fraction, failure },
+        ToiState::Hit | ToiState::Overlapped => {
+            if out.normal != Vec2::ZERO && approaching(sweep, out.point, out.normal, 0.01 * separation_tolerance(slop)) {
+                PairOutcome::Hit {
+                    fraction: 0.0,
+                    point: out.point,
+                    normal: out.normal,
+                    overlapping: true,
+                }
+            } else {
+                // The centre itself is inside the target: no direction is known to be
+                // "deeper", so the user's motion stands.
+                PairOutcome::Clear { overlapping: true }
+            }
+        }
+    }
+}
+
+/// The impulse response at a contact against an immovable target.
+///
+/// With `r` from the centre of mass to the contact, `n` the unit normal from the target toward
+/// the body and `t = perp(n)`, the contact point moves at `v_c = v + w perp(r)`. When it
+/// approaches (`vn = v_c·n < 0`) the normal impulse that makes the new normal speed
+/// `-e vn` is `jn = -(1 + e) vn / (1/m + (r × n)² / I)` (the effective mass of the contact
+/// along `n`); the tangential impulse that would stop sliding is
+/// `jt = -(v_c·t) / (1/m + (r × t)² / I)`, clamped to `|jt| <= mu jn` (Coulomb). Then
+/// `v += (jn n + jt t) / m` and `w += r × (jn n + jt t) / I`.
+pub fn contact_response(
+    velocity: (Vec2, f32),
+    r: Vec2,
+    normal: Vec2,
+    mass: f32,
+    inertia: f32,
+    restitution: f32,
+    friction: f32,
+) -> (Vec2, f32) {
+    let (v, w) = velocity;
+    let vc = v + w * left_perp(r);
+    let vn = vc.dot(normal);
+    if vn >= 0.0 {
+        return velocity;
+    }
+    let inv_m = 1.0 / mass;
+    let inv_i = 1.0 / inertia;
+    let rn = cross(r, normal);
+    let jn = -(1.0 + restitution) * vn / (inv_m + rn * rn * inv_i);
+    let tangent = left_perp(normal);
+    let rt = cross(r, tangent);
+    let vt = vc.dot(tangent);
+    let jt = (-vt / (inv_m + rt * rt * inv_i)).clamp(-friction * jn, friction * jn);
+    let impulse = jn * normal + jt * tangent;
+    (v + impulse * inv_m, w + cross(r, impulse) * inv_i)
+}
+
+/// Sweeps one body against the static world and resolves its impacts.
+///
+/// `candidates` are the targets overlapping the body's swept bound (ascending), as the broad
+/// phase found them; sub-steps query `statics` again with their new sweeps. `scratch` is a
+/// reusable buffer. Deterministic: the result depends only on the inputs.
+pub fn solve_body(
+    body: &BodyState,
+    statics: &StaticSet,
+    candidates: &[u32],
+    settings: &SolveSettings,
+    scratch: &mut Vec<u32>,
+) -> BodyResult {
+    let slop = settings.linear_slop;
+    let dt = settings.dt;
+    let mut sweep = body.sweep;
+    let implied = (sweep.linear_motion() / dt, sweep.angular_motion() / dt);
+    let mut velocity = body.velocity.unwrap_or(implied);
+    let mut result = BodyResult {
+        position: Vec2::ZERO,
+        angle: 0.0,
+        velocity: body.velocity,
+        impacts: SmallVec::new(),
+        substeps: 0,
+        started_overlapping: false,
+        failure: None,
+    };
+    // Fraction of the whole step at the start of the current sweep.
+    let mut step_start = 0.0f32;
+    let mut first = true;
+    loop {
+        let list: &[u32] = if first {
+            candidates
+        } else {
+            scratch.clear();
+            statics.candidates(&body.proxy, &sweep, slop, scratch);
+            scratch
+        };
+        // Earliest hit; ties go to the lowest target index (the list is ascending).
+        let mut best: Option<(f32, u32, Vec2, Vec2)> = None;
+        let mut failed: Option<(f32, ToiFailure)> = None;
+        for &index in list {
+            let Some(target) = statics.items.get(index as usize) else { continue };
+            match pair_toi(body, &sweep, target, slop) {
+                PairOutcome::Clear { overlapping } => {
+                    result.started_overlapping |= overlapping && first;
+                }
+                PairOutcome::Hit { fraction, point, normal, overlapping } => {
+                    result.started_overlapping |= overlapping && first;
+                    if best.is_none_or(|b| fraction < b.0) {
+                        best = Some((fraction, index, point, normal));
+                    }
+                }
+                PairOutcome::Failed { fraction, failure } => {
+                    if failed.is_none_or(|f| fraction < f.0) {
+                        failed = Some((fraction, failure));
+                    }
+                }
+            }
+        }
+        first = false;
+        if let Some((fraction, failure)) = failed {
+            // A failed query clamps the body at the last time known to be clear.
+            if best.is_none_or(|b| fraction <= b.0) {
+                let pose = sweep.pose_at(fraction);
+                result.position = pose.p;
+                result.angle = sweep.angle_at(fraction);
+                result.failure = Some(failure);
+                break;
+            }
+        }
+        let Some((fraction, index, point, normal)) = best else {
+            result.position = sweep.pose_at(1.0).p;
+            result.angle = sweep.a1;
+            break;
+        };
+        let step_fraction = step_start + fraction * (1.0 - step_start);
+        let outward = -normal;
+        result.impacts.push(ImpactRecord {
+            target: index,
+            fraction: step_fraction,
+            point,
+            normal: outward,
+        });
+        let center = sweep.center_at(fraction);
+        let angle = sweep.angle_at(fraction);
+        velocity = contact_response(
+            velocity,
+            point - center,
+            outward,
+            body.mass,
+            body.inertia,
+            body.restitution,
+            body.friction,
+        );
+        let clamp = match settings.mode {
+            ResolveMode::Clamp => true,
+            ResolveMode::SubStep { max_substeps } => result.substeps >= max_substeps,
+        };
+        if clamp || step_fraction >= 1.0 {
+            result.position = sweep.pose_at(fraction).p;
+            result.angle = angle;
+            break;
+        }
+        // Spend the rest of the step from the impact with the new velocity.
+        let remaining = (1.0 - step_fraction) * dt;
+        sweep = Sweep::new(
+            body.local_center,
+            center,
+            angle,
+            center + velocity.0 * remaining,
+            angle + velocity.1 * remaining,
+        );
+        step_start = step_fraction;
+        result.substeps += 1;
+    }
+    if body.velocity.is_some() {
+        result.velocity = Some(velocity);
+    }
+    result
+}

@@ -1,0 +1,367 @@
+//! The components a user puts on bodies, and the ones the plugin maintains.
+
+use bevy_ecs::prelude::*;
+use bevy_reflect::prelude::*;
+use glam::Vec2;
+
+use crate::geometry::{
+    self, Capsule, Circle, MassProperties, Polygon, Segment, Shape, ShapeError, ShapeProxy,
+    ToiFailure,
+};
+
+/// The shape of a body or of a static target, with an optional offset from the entity origin.
+///
+/// A body is swept by CCD when it also has [`CcdEnabled`] (on); a target is marked with
+/// [`StaticCollider`].
+///
+/// ```
+/// use bevy_ccd::prelude::*;
+/// use bevy_ecs::prelude::*;
+/// use bevy_transform::prelude::Transform;
+///
+/// let mut world = World::new();
+/// // A fast ball, swept every step.
+/// world.spawn((Collider::circle(0.1).unwrap(), CcdEnabled::default(), Transform::default()));
+/// // A wall.
+/// world.spawn((Collider::rectangle(0.005, 5.0).unwrap(), StaticCollider, Transform::default()));
+/// ```
+#[derive(Component, Reflect, Clone, Copy, Debug, PartialEq)]
+#[reflect(opaque)]
+#[reflect(Component, Debug, Clone, PartialEq)]
+pub struct Collider {
+    shape: Shape,
+    offset: Vec2,
+    proxy: ShapeProxy,
+}
+
+impl Collider {
+    /// A collider from a validated shape, centred on the entity origin.
+    pub fn new(shape: impl Into<Shape>) -> Self {
+        let shape = shape.into();
+        Self { shape, offset: Vec2::ZERO, proxy: shape.proxy() }
+    }
+
+    /// A disc of `radius` metres.
+    pub fn circle(radius: f32) -> Result<Self, ShapeError> {
+        Ok(Self::new(Circle::new(radius)?))
+    }
+
+    /// A capsule along the local x axis: `half_length` from the centre to each cap centre.
+    pub fn capsule(half_length: f32, radius: f32) -> Result<Self, ShapeError> {
+        Ok(Self::new(Capsule::horizontal(half_length, radius)?))
+    }
+
+    /// A thin segment between two local points.
+    pub fn segment(a: Vec2, b: Vec2) -> Result<Self, ShapeError> {
+        Ok(Self::new(Segment::new(a, b)?))
+    }
+
+    /// A box with the given half width and half height.
+    pub fn rectangle(half_width: f32, half_height: f32) -> Result<Self, ShapeError> {
+        Ok(Self::new(Polygon::rectangle(half_width, half_height)?))
+    }
+
+    /// The convex hull of a point cloud, rounded by `radius`.
+    pub fn convex_hull(points: &[Vec2], radius: f32) -> Result<Self, ShapeError> {
+        Ok(Self::new(Polygon::from_points(points, radius)?))
+    }
+
+    /// This collider shifted by `offset` (m) in the entity frame. The default is no offset.
+    pub fn with_offset(mut self, offset: Vec2) -> Result<Self, ShapeError> {
+        if !offset.is_finite() {
+            return Err(ShapeError::NonFinite);
+        }
+        self.offset = offset;
+        let points: smallvec::SmallVec<[Vec2; 8]> =
+            self.shape.proxy().points().iter().map(|p| *p + offset).collect();
+        self.proxy = ShapeProxy::new(&points, self.proxy.radius)?;
+        Ok(self)
+    }
+
+    /// The shape.
+    pub fn shape(&self) -> &Shape {
+        &self.shape
+    }
+
+    /// The offset of the shape from the entity origin (m).
+    pub fn offset(&self) -> Vec2 {
+        self.offset
+    }
+
+    /// The support-map proxy in the entity frame (offset applied).
+    pub fn proxy(&self) -> &ShapeProxy {
+        &self.proxy
+    }
+
+    /// Mass properties at `density` (kg/m²), centre in the entity frame.
+    pub fn mass_properties(&self, density: f32) -> MassProperties {
+        let mut m = self.shape.mass_properties(density);
+        m.center += self.offset;
+        m
+    }
+}
+
+/// Marks a collider as a static target: CCD bodies are swept against it.
+///
+/// Statics live in a bounding-volume hierarchy that is rebuilt when one is added, removed,
+/// moved or reshaped.
+///
+/// ```
+/// use bevy_ccd::prelude::*;
+/// use bevy_ecs::prelude::*;
+/// use bevy_transform::prelude::Transform;
+///
+/// let mut world = World::new();
+/// world.spawn((
+///     Collider::segment(Vec2::new(-10.0, 0.0), Vec2::new(10.0, 0.0)).unwrap(),
+///     StaticCollider,
+///     Transform::default(),
+/// ));
+/// ```
+#[derive(Component, Reflect, Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[reflect(Component, Default, Debug, Clone)]
+pub struct StaticCollider;
+
+/// Turns continuous collision on or off for one body.
+///
+/// Removing the component, or setting it off, stops the body being swept from the next step
+/// on. Bodies need a [`Collider`]; a [`Sweep`] and a [`TimeOfImpact`] are added for them.
+///
+/// ```
+/// use bevy_ccd::prelude::*;
+/// use bevy_ecs::prelude::*;
+///
+/// let mut world = World::new();
+/// let body = world.spawn((Collider::circle(0.2).unwrap(), CcdEnabled::default())).id();
+/// // Later: stop sweeping this body.
+/// world.entity_mut(body).insert(CcdEnabled(false));
+/// ```
+#[derive(Component, Reflect, Clone, Copy, Debug, PartialEq, Eq)]
+#[reflect(Component, Default, Debug, Clone)]
+#[require(Sweep, TimeOfImpact)]
+pub struct CcdEnabled(
+    /// Whether the body is swept. The default is `true`.
+    pub bool,
+);
+
+impl Default for CcdEnabled {
+    fn default() -> Self {
+        Self(true)
+    }
+}
+
+/// The motion of a body over the last step, maintained by the plugin (read-only for users).
+///
+/// `start_*` is recorded at the beginning of the fixed step, `end_*` after the user's
+/// movement systems; after resolution, `resolved_*` holds where the plugin left the body.
+///
+/// ```
+/// use bevy_ccd::prelude::*;
+/// use bevy_ecs::prelude::*;
+///
+/// let mut world = World::new();
+/// let body = world.spawn((Collider::circle(0.2).unwrap(), CcdEnabled::default())).id();
+/// // `CcdEnabled` requires a `Sweep`: it is there, at rest until the first step.
+/// let sweep = world.get::<Sweep>(body).unwrap();
+/// assert_eq!(sweep.start_position, sweep.end_position);
+/// ```
+#[derive(Component, Reflect, Clone, Copy, Debug, Default, PartialEq)]
+#[reflect(Component, Default, Debug, Clone)]
+pub struct Sweep {
+    /// Body origin at the start of the step (m). The default is the origin.
+    pub start_position: Vec2,
+    /// Angle at the start of the step (radians). The default is 0.
+    pub start_angle: f32,
+    /// Body origin where the user's code moved it (m). The default is the origin.
+    pub end_position: Vec2,
+    /// Angle where the user's code turned it, unwrapped so that `end_angle - start_angle` is
+    /// the whole turn (several turns when a [`Velocity`] says so). The default is 0.
+    pub end_angle: f32,
+    /// Body origin after resolution (m). The default is the origin.
+    pub resolved_position: Vec2,
+    /// Angle after resolution (radians). The default is 0.
+    pub resolved_angle: f32,
+    /// Centre of mass in the body frame (m). The default is the origin.
+    pub local_center: Vec2,
+    /// Whether the start pose was recorded in the current step. The default is `false`.
+    pub recorded: bool,
+}
+
+impl Sweep {
+    /// The geometry-layer sweep from the start to the user's end pose.
+    pub fn motion(&self) -> geometry::Sweep {
+        geometry::Sweep::from_origins(
+            self.local_center,
+            self.start_position,
+            self.start_angle,
+            self.end_position,
+            self.end_angle,
+        )
+    }
+}
+
+/// Why the plugin could not sweep a body this step. The body is left where its user put it.
+#[derive(Reflect, Clone, Copy, Debug, PartialEq, Eq)]
+#[reflect(opaque)]
+#[reflect(Debug, Clone, PartialEq)]
+pub enum CcdError {
+    /// The `Transform` (start or end) holds NaN or infinity.
+    NonFiniteTransform,
+    /// A coordinate is beyond the geometry layer's limit.
+    CoordinatesTooLarge,
+    /// The fixed step has zero or non-finite length.
+    ZeroLengthStep,
+    /// The `Velocity` or mass properties hold NaN, infinity or a non-positive mass.
+    InvalidBodyData,
+    /// The time of impact failed against a target; the body was clamped at the last time known
+    /// to be clear.
+    Toi(ToiFailure),
+}
+
+/// What happened to a body in the last step.
+#[derive(Reflect, Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[reflect(Debug, Clone, PartialEq, Default)]
+pub enum CcdStatus {
+    /// Not swept (disabled, or no step yet).
+    #[default]
+    Idle,
+    /// Swept; nothing in the way.
+    Clear,
+    /// Swept; hit a target (see [`TimeOfImpact::first_hit`]).
+    Hit,
+    /// Started the step overlapping a target; motion that separates was allowed.
+    Overlapping,
+    /// Could not be swept; see [`TimeOfImpact::error`].
+    Error,
+}
+
+/// One impact of a body against a target.
+#[derive(Reflect, Clone, Copy, Debug, PartialEq)]
+#[reflect(Debug, Clone, PartialEq)]
+pub struct Impact {
+    /// The target hit.
+    pub other: Entity,
+    /// Fraction of the step at which it happened, in `[0, 1]`.
+    pub fraction: f32,
+    /// Contact point (world, m).
+    pub point: Vec2,
+    /// Unit normal from the target toward the body.
+    pub normal: Vec2,
+}
+
+/// The outcome of the last step for one body, written by the plugin.
+///
+/// ```
+/// use bevy_ccd::prelude::*;
+/// use bevy_ecs::prelude::*;
+///
+/// let mut world = World::new();
+/// let body = world.spawn((Collider::circle(0.2).unwrap(), CcdEnabled::default())).id();
+/// let toi = world.get::<TimeOfImpact>(body).unwrap();
+/// assert_eq!(toi.status, CcdStatus::Idle);
+/// assert!(toi.first_hit.is_none());
+/// ```
+#[derive(Component, Reflect, Clone, Copy, Debug, Default, PartialEq)]
+#[reflect(Component, Default, Debug, Clone)]
+pub struct TimeOfImpact {
+    /// What happened. The default is [`CcdStatus::Idle`].
+    pub status: CcdStatus,
+    /// The earliest impact of the step, if any. The default is `None`.
+    pub first_hit: Option<Impact>,
+    /// The error, when `status` is [`CcdStatus::Error`]. The default is `None`.
+    pub error: Option<CcdError>,
+    /// Impacts this step (sub-steps included). The default is 0.
+    pub impacts: u32,
+    /// Sub-steps spent after impacts. The default is 0.
+    pub substeps: u32,
+}
+
+/// A body's velocity, which the plugin reads (to unwrap several turns per step) and changes
+/// on impact. Optional: without it the plugin works on the step's displacement.
+///
+/// ```
+/// use bevy_ccd::prelude::*;
+/// use bevy_ecs::prelude::*;
+///
+/// let mut world = World::new();
+/// world.spawn((
+///     Collider::capsule(0.5, 0.05).unwrap(),
+///     CcdEnabled::default(),
+///     Velocity { linear: Vec2::new(300.0, 0.0), angular: 50.0 },
+/// ));
+/// ```
+#[derive(Component, Reflect, Clone, Copy, Debug, Default, PartialEq)]
+#[reflect(Component, Default, Debug, Clone)]
+pub struct Velocity {
+    /// Linear velocity of the centre of mass (m/s). The default is zero.
+    pub linear: Vec2,
+    /// Angular velocity (rad/s, counter-clockwise). The default is zero.
+    pub angular: f32,
+}
+
+/// Coefficient of restitution for impacts of this body: 0 stops the normal motion, 1 bounces
+/// without loss.
+///
+/// ```
+/// use bevy_ccd::prelude::*;
+/// use bevy_ecs::prelude::*;
+///
+/// let mut world = World::new();
+/// world.spawn((Collider::circle(0.1).unwrap(), CcdEnabled::default(), Restitution(1.0)));
+/// ```
+#[derive(Component, Reflect, Clone, Copy, Debug, PartialEq)]
+#[reflect(Component, Default, Debug, Clone)]
+pub struct Restitution(
+    /// The coefficient, in `[0, 1]`. The default is 0.
+    pub f32,
+);
+
+impl Default for Restitution {
+    fn default() -> Self {
+        Self(0.0)
+    }
+}
+
+/// Coulomb friction coefficient for impacts of this body.
+///
+/// ```
+/// use bevy_ccd::prelude::*;
+/// use bevy_ecs::prelude::*;
+///
+/// let mut world = World::new();
+/// world.spawn((Collider::circle(0.1).unwrap(), CcdEnabled::default(), Friction(0.3)));
+/// ```
+#[derive(Component, Reflect, Clone, Copy, Debug, PartialEq)]
+#[reflect(Component, Default, Debug, Clone)]
+pub struct Friction(
+    /// The coefficient, 0 or more. The default is 0 (frictionless).
+    pub f32,
+);
+
+impl Default for Friction {
+    fn default() -> Self {
+        Self(0.0)
+    }
+}
+
+/// Mass properties set by the user; without it they come from the collider at unit density.
+///
+/// ```
+/// use bevy_ccd::prelude::*;
+/// use bevy_ecs::prelude::*;
+///
+/// let mut world = World::new();
+/// world.spawn((
+///     Collider::rectangle(0.5, 0.1).unwrap(),
+///     CcdEnabled::default(),
+///     BodyMass { mass: 2.0, inertia: 0.2 },
+/// ));
+/// ```
+#[derive(Component, Reflect, Clone, Copy, Debug, PartialEq)]
+#[reflect(Component, Debug, Clone)]
+pub struct BodyMass {
+    /// Mass (kg), positive.
+    pub mass: f32,
+    /// Rotational inertia about the centre of mass (kg m²), positive.
+    pub inertia: f32,
+}

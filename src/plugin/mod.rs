@@ -1,0 +1,220 @@
+//! The Bevy face of the crate: [`CcdPlugin`], its ordered phases [`CcdSystems`], the
+//! [`CcdConfig`] resource, the components and the [`CcdImpact`] message.
+
+mod components;
+mod systems;
+pub mod testing;
+
+use bevy_app::prelude::*;
+use bevy_app::{FixedFirst, FixedPostUpdate};
+use bevy_ecs::intern::Interned;
+use bevy_ecs::prelude::*;
+use bevy_ecs::schedule::ScheduleLabel;
+use bevy_reflect::prelude::*;
+use bevy_time::{Fixed, Time};
+use glam::Vec2;
+
+pub use components::{
+    BodyMass, CcdEnabled, CcdError, CcdStatus, Collider, Friction, Impact, Restitution,
+    StaticCollider, Sweep, TimeOfImpact, Velocity,
+};
+pub use systems::CcdWorkspace;
+
+use crate::geometry::LINEAR_SLOP;
+
+/// Continuous collision detection for bodies moved by the user's own code.
+///
+/// # Order of a fixed step (with the default schedules)
+///
+/// ```text
+/// FixedFirst       CcdSystems::RecordStart   start pose of every CCD body (a teleport made
+///                                            between steps is therefore never swept)
+/// FixedUpdate      your movement systems     move `Transform` (and keep `Velocity`)
+/// FixedPostUpdate  CcdSystems::RecordEnd     end pose, unwrapped angle
+///                  CcdSystems::BroadPhase    static hierarchy upkeep, swept-bound queries
+///                  CcdSystems::TimeOfImpact  bilateral advancement per body, in parallel
+///                  CcdSystems::Resolve       clamp or sub-step; write `Transform`,
+///                                            `Velocity`, `TimeOfImpact`, `CcdImpact`
+/// ```
+///
+/// Put your movement systems in `FixedUpdate` (or anywhere before
+/// [`CcdSystems::RecordEnd`]). Bodies are root entities: their `Transform` is their world
+/// pose (x, y and the rotation about z; z and scale are left alone).
+///
+/// ```
+/// use bevy_app::prelude::*;
+/// use bevy_ccd::prelude::*;
+///
+/// let mut app = App::new();
+/// app.add_plugins((bevy_time::TimePlugin, CcdPlugin::default()));
+/// // Or run the CCD phases in another pair of schedules:
+/// let _custom = CcdPlugin::new(bevy_app::FixedFirst, bevy_app::FixedPostUpdate);
+/// ```
+pub struct CcdPlugin {
+    start_schedule: Interned<dyn ScheduleLabel>,
+    schedule: Interned<dyn ScheduleLabel>,
+}
+
+impl CcdPlugin {
+    /// A plugin recording start poses in `start_schedule` and running the other phases in
+    /// `schedule`. Both must run once per step, `start_schedule` before the user's movement
+    /// and `schedule` after it.
+    pub fn new(start_schedule: impl ScheduleLabel, schedule: impl ScheduleLabel) -> Self {
+        Self { start_schedule: start_schedule.intern(), schedule: schedule.intern() }
+    }
+}
+
+impl Default for CcdPlugin {
+    /// `FixedFirst` and `FixedPostUpdate`.
+    fn default() -> Self {
+        Self::new(FixedFirst, FixedPostUpdate)
+    }
+}
+
+impl Plugin for CcdPlugin {
+    fn build(&self, app: &mut App) {
+        app.init_resource::<CcdConfig>()
+            .init_resource::<CcdWorkspace>()
+            .init_resource::<Time<Fixed>>()
+            .add_message::<CcdImpact>()
+            .register_type::<CcdConfig>()
+            .register_type::<Collider>()
+            .register_type::<StaticCollider>()
+            .register_type::<CcdEnabled>()
+            .register_type::<Sweep>()
+            .register_type::<TimeOfImpact>()
+            .register_type::<Velocity>()
+            .register_type::<Restitution>()
+            .register_type::<Friction>()
+            .register_type::<BodyMass>();
+        app.configure_sets(
+            self.schedule,
+            (
+                CcdSystems::RecordEnd,
+                CcdSystems::BroadPhase,
+                CcdSystems::TimeOfImpact,
+                CcdSystems::Resolve,
+            )
+                .chain(),
+        );
+        app.add_systems(
+            self.start_schedule,
+            systems::record_start.in_set(CcdSystems::RecordStart),
+        );
+        app.add_systems(
+            self.schedule,
+            (
+                systems::record_end.in_set(CcdSystems::RecordEnd),
+                (systems::update_statics, systems::gather_bodies)
+                    .chain()
+                    .in_set(CcdSystems::BroadPhase),
+                systems::solve_bodies.in_set(CcdSystems::TimeOfImpact),
+                systems::write_back.in_set(CcdSystems::Resolve),
+            ),
+        );
+    }
+}
+
+/// The ordered phases of continuous collision, one step.
+///
+/// `RecordStart` runs in the plugin's start schedule; the others run, chained in this order,
+/// in its main schedule.
+#[derive(SystemSet, Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum CcdSystems {
+    /// Records the start pose of every CCD body.
+    RecordStart,
+    /// Records the end pose the user's code left.
+    RecordEnd,
+    /// Keeps the static hierarchy current and gathers candidate targets per body.
+    BroadPhase,
+    /// Runs the time of impact and the resolution of every body (in parallel).
+    TimeOfImpact,
+    /// Writes poses, velocities, outcomes and impact messages back to the world.
+    Resolve,
+}
+
+/// How bodies are resolved at an impact.
+#[derive(Reflect, Clone, Copy, Debug, PartialEq, Eq)]
+#[reflect(Debug, Clone, PartialEq)]
+pub enum Resolution {
+    /// The body's pose becomes its pose at the impact (at the target separation); the rest of
+    /// the step's motion is dropped. Its velocity (if it keeps a [`Velocity`]) still gets the
+    /// impact response, so next step it moves away or along.
+    Clamp,
+    /// Advance to the impact, respond with an impulse (restitution, friction, mass and
+    /// inertia), spend the remaining fraction of the step from there with a new sweep, search
+    /// again; after `max_substeps` impacts, clamp.
+    SubStep {
+        /// The most impacts handled in one step. The default is 4.
+        max_substeps: u32,
+    },
+}
+
+impl Default for Resolution {
+    fn default() -> Self {
+        Self::SubStep { max_substeps: 4 }
+    }
+}
+
+/// Settings of the plugin.
+///
+/// ```
+/// use bevy_app::prelude::*;
+/// use bevy_ccd::prelude::*;
+///
+/// let mut app = App::new();
+/// app.add_plugins((bevy_time::TimePlugin, CcdPlugin::default()))
+///     .insert_resource(CcdConfig { resolution: Resolution::Clamp, ..Default::default() });
+/// ```
+#[derive(Resource, Reflect, Clone, Copy, Debug, PartialEq)]
+#[reflect(Resource, Debug, Clone, PartialEq)]
+pub struct CcdConfig {
+    /// Clamp or sub-step. The default is sub-stepping with up to 4 sub-steps.
+    pub resolution: Resolution,
+    /// Linear slop (m): the gap left at an impact and the scale of every tolerance. The
+    /// default is [`LINEAR_SLOP`] (0.005 m); scale it with your length unit.
+    pub linear_slop: f32,
+    /// Length of a step (s) used to turn displacements into velocities. The default is
+    /// `None`: the fixed timestep of `Time<Fixed>`.
+    pub timestep: Option<f32>,
+    /// Spread bodies over the compute task pool. Results are identical either way. The default
+    /// is `true`.
+    pub parallel: bool,
+}
+
+impl Default for CcdConfig {
+    fn default() -> Self {
+        Self { resolution: Resolution::default(), linear_slop: LINEAR_SLOP, timestep: None, parallel: true }
+    }
+}
+
+/// Sent for every impact of a CCD body (sub-step impacts included), in a deterministic order
+/// (by body, then by time).
+///
+/// ```
+/// use bevy_ccd::prelude::*;
+/// use bevy_ecs::prelude::*;
+///
+/// fn log_impacts(mut impacts: MessageReader<CcdImpact>) {
+///     for hit in impacts.read() {
+///         println!("{:?} hit {:?} at {}", hit.body, hit.other, hit.fraction);
+///     }
+/// }
+/// # let mut schedule = Schedule::default();
+/// # schedule.add_systems(log_impacts);
+/// ```
+#[derive(Message, Clone, Copy, Debug, PartialEq)]
+pub struct CcdImpact {
+    /// The CCD body.
+    pub body: Entity,
+    /// The static target it hit.
+    pub other: Entity,
+    /// Fraction of the step at which it hit.
+    pub fraction: f32,
+    /// Contact point (world, m).
+    pub point: Vec2,
+    /// Unit normal from the target toward the body.
+    pub normal: Vec2,
+    /// 0 for the first impact of the step, then 1, 2, ... for impacts after sub-steps.
+    pub substep: u32,
+}

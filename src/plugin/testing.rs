@@ -1,0 +1,97 @@
+//! Small helpers for headless app tests: a fixed-step app, stepping it, and a bounds check.
+//!
+//! ```
+//! use bevy_ccd::prelude::*;
+//! use bevy_ccd::testing::{StepFixed, bodies_outside, headless_app};
+//! use bevy_transform::prelude::Transform;
+//!
+//! let mut app = headless_app(1.0 / 60.0);
+//! // A floor, and a ball falling at 300 m/s.
+//! app.world_mut().spawn((
+//!     Collider::rectangle(10.0, 0.005).unwrap(),
+//!     StaticCollider,
+//!     Transform::default(),
+//! ));
+//! let ball = app
+//!     .world_mut()
+//!     .spawn((
+//!         Collider::circle(0.1).unwrap(),
+//!         CcdEnabled::default(),
+//!         Velocity { linear: Vec2::new(0.0, -300.0), angular: 0.0 },
+//!         Transform::from_xyz(0.0, 2.0, 0.0),
+//!     ))
+//!     .id();
+//! // The user's movement: integrate the velocity.
+//! app.add_systems(bevy_app::FixedUpdate, bevy_ccd::testing::integrate_velocity);
+//! app.step_fixed(10);
+//! let level = Aabb { min: Vec2::new(-10.0, 0.0), max: Vec2::new(10.0, 10.0) };
+//! assert!(bodies_outside(app.world_mut(), level).is_empty());
+//! # let _ = ball;
+//! ```
+
+use core::time::Duration;
+
+use bevy_app::prelude::*;
+use bevy_ecs::prelude::*;
+use bevy_time::{Fixed, Time, TimePlugin, TimeUpdateStrategy};
+use bevy_transform::components::Transform;
+use glam::{Quat, Vec3};
+
+use super::{CcdEnabled, CcdPlugin, Collider, StaticCollider, Velocity};
+use crate::geometry::{Aabb, Pose};
+
+/// An app with the time and CCD plugins where every `update` runs exactly one fixed step of
+/// `timestep` seconds.
+pub fn headless_app(timestep: f64) -> App {
+    let mut app = App::new();
+    app.add_plugins((TimePlugin, CcdPlugin::default()));
+    app.insert_resource(Time::<Fixed>::from_duration(Duration::from_secs_f64(timestep)));
+    app.insert_resource(TimeUpdateStrategy::FixedTimesteps(1));
+    app
+}
+
+/// Runs fixed steps on an app made by [`headless_app`] (or any app whose
+/// [`TimeUpdateStrategy`] is `FixedTimesteps(1)`).
+pub trait StepFixed {
+    /// Runs `n` updates, one fixed step each.
+    fn step_fixed(&mut self, n: usize);
+}
+
+impl StepFixed for App {
+    fn step_fixed(&mut self, n: usize) {
+        for _ in 0..n {
+            self.update();
+        }
+    }
+}
+
+/// A movement system for tests and demos: moves every body with a [`Velocity`] by
+/// `velocity * dt` (translation and rotation about z).
+pub fn integrate_velocity(time: Res<Time>, mut bodies: Query<(&mut Transform, &Velocity)>) {
+    let dt = time.delta_secs();
+    for (mut transform, v) in &mut bodies {
+        transform.translation += Vec3::new(v.linear.x, v.linear.y, 0.0) * dt;
+        transform.rotation = Quat::from_rotation_z(v.angular * dt) * transform.rotation;
+    }
+}
+
+/// The CCD bodies (entities with [`CcdEnabled`] and a [`Collider`], statics excluded) whose
+/// collider is not entirely inside `bounds`, or whose pose is not finite.
+pub fn bodies_outside(world: &mut World, bounds: Aabb) -> Vec<Entity> {
+    let mut query = world.query_filtered::<(Entity, &Transform, &Collider), (
+        With<CcdEnabled>,
+        Without<StaticCollider>,
+    )>();
+    let mut out: Vec<Entity> = query
+        .iter(world)
+        .filter(|(_, transform, collider)| {
+            let x = transform.rotation * Vec3::X;
+            let pose = Pose::new(transform.translation.truncate(), x.y.atan2(x.x));
+            let aabb = collider.proxy().aabb(pose);
+            !(aabb.is_valid() && bounds.contains(&aabb))
+        })
+        .map(|(e, _, _)| e)
+        .collect();
+    out.sort();
+    out
+}
