@@ -1,1 +1,751 @@
-fn main(){}
+//! Time of impact: ours against Box2D v3 (through `boxdd`) and parry2d, on the shared oracle
+//! cases (`tests/data/toi-cases.jsonl`, format and scoring rules in
+//! `shared/toi-cases/README.md`).
+//!
+//! # What runs
+//!
+//! Every case goes through three implementations, built from the same JSON numbers before any
+//! timing:
+//!
+//! - `ours`: [`bevy_ccd::geometry::time_of_impact`], the *angle* model (constant angular
+//!   velocity, any number of turns);
+//! - `box2d`: Box2D v3's `b2TimeOfImpact` through `boxdd::time_of_impact` (the safe wrapper, so
+//!   its input validation and foundation lease are part of the call). `b2Sweep` holds the
+//!   rotations at both ends of the step and blends them by nlerp: the *nlerp* model. Cases
+//!   that turn by pi or more have no nlerp reference and score *unsupported*;
+//! - `parry`: parry2d's `cast_shapes_nonlinear` with a `NonlinearRigidMotion` per body
+//!   (linear velocity `c1 - c0`, angular velocity `a1 - a0` over a unit time), which is the
+//!   *angle* model, with `stop_at_penetration = true` (an overlap at the start ends the cast,
+//!   as it does for the others). Shapes: `Ball` (one point), `Capsule` / `Segment` (two),
+//!   `ConvexPolygon`, or `RoundShape<ConvexPolygon>` when rounded.
+//!
+//! Each result is scored against the reference of the model it follows
+//! ([`oracle::score_model`]). A peer's odd output (an error, a failed status, a fraction that
+//! is not a number in `[0, 1]`, a panic) scores *failed*; it never stops the run.
+//!
+//! # Timing
+//!
+//! One criterion group per family (`toi-<family>`), with the functions `ours`, `box2d` and
+//! `parry`; one iteration runs every case of the family through that implementation. The
+//! table's *ns/call* is criterion's median iteration time divided by the number of cases
+//! timed. Where criterion has no estimate from this run (`cargo test --benches`, a filter
+//! that skipped the group, `--profile-time`), it is the median of a few self-timed passes
+//! instead, and the table says so.
+//!
+//! # The table
+//!
+//! Printed to stdout after the benchmarks (outside any timing) and written to
+//! `<target dir>/toi-bench-table.md`. An implementation gets a family **right** when it has
+//! no miss, no failure and no unsupported case there (late, early and ghost answers are
+//! counted but allowed). The ratio is ours over the fastest peer that got the family right;
+//! the target is at most 0.75.
+//!
+//! ```text
+//! CARGO_TARGET_DIR=target-bench cargo bench --bench toi              # full run
+//! CARGO_TARGET_DIR=target-bench cargo bench --bench toi -- --quick   # short run
+//! CARGO_TARGET_DIR=target-bench cargo test --benches                 # smoke test
+//! ```
+
+#[path = "../tests/support/oracle.rs"]
+mod oracle;
+
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+use std::hint::black_box;
+use std::panic::{AssertUnwindSafe, catch_unwind};
+use std::path::PathBuf;
+use std::time::{Duration, Instant, SystemTime};
+
+use bevy_ccd::geometry::{ToiInput, ToiOutput, time_of_impact};
+use criterion::{Criterion, Throughput};
+use oracle::{Case, Model, Reported, Verdict, load_cases, score_model};
+use parry2d::math::{Pose, Vector};
+use parry2d::query::{NonlinearRigidMotion, ShapeCastStatus, cast_shapes_nonlinear};
+use parry2d::shape::{Ball, Capsule, ConvexPolygon, RoundShape, Segment, Shape};
+
+/// The families of the oracle set, in the README's order.
+const FAMILIES: [&str; 6] = ["random", "bullet", "spinning", "catto_worst_case", "grazing", "edge"];
+
+/// The speed target: ours over the fastest right peer.
+const RATIO_TARGET: f64 = 0.75;
+
+/// Verdict columns of the table, in order.
+const VERDICTS: [Verdict; 6] = [
+    Verdict::Correct,
+    Verdict::Miss,
+    Verdict::Late,
+    Verdict::Early,
+    Verdict::Ghost,
+    Verdict::Failed,
+];
+
+/// One of the implementations compared.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+enum Engine {
+    Ours,
+    Box2d,
+    Parry,
+}
+
+impl Engine {
+    const ALL: [Engine; 3] = [Engine::Ours, Engine::Box2d, Engine::Parry];
+
+    /// The criterion function name and table label.
+    fn name(self) -> &'static str {
+        match self {
+            Engine::Ours => "ours",
+            Engine::Box2d => "box2d",
+            Engine::Parry => "parry",
+        }
+    }
+
+    /// The rotation model the implementation follows, hence the reference it is scored with.
+    fn model(self) -> Model {
+        match self {
+            Engine::Ours | Engine::Parry => Model::Angle,
+            Engine::Box2d => Model::Nlerp,
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Building each implementation's input
+// ---------------------------------------------------------------------------------------------
+
+/// A case as parry takes it: two shapes and their motions.
+struct ParryCase {
+    shape_a: Box<dyn Shape>,
+    motion_a: NonlinearRigidMotion,
+    shape_b: Box<dyn Shape>,
+    motion_b: NonlinearRigidMotion,
+}
+
+fn parry_vector(p: [f32; 2]) -> Vector {
+    Vector::new(p[0], p[1])
+}
+
+/// A parry shape for a README shape, and the body-local point its own origin stands for.
+///
+/// A `Ball` is centred on its origin, so a circle's core point becomes the origin of the
+/// shape's frame; every other shape keeps the body frame (offset zero).
+fn parry_shape(shape: &oracle::ShapeJson) -> Result<(Box<dyn Shape>, Vector), String> {
+    let points: Vec<Vector> = shape.points.iter().map(|&p| parry_vector(p)).collect();
+    let r = shape.radius;
+    let built: Box<dyn Shape> = match points.as_slice() {
+        [] => return Err("no points".into()),
+        [p] => return Ok((Box::new(Ball::new(r)), *p)),
+        [a, b] if r > 0.0 => Box::new(Capsule::new(*a, *b, r)),
+        [a, b] => Box::new(Segment::new(*a, *b)),
+        _ => {
+            let polygon = ConvexPolygon::from_convex_polyline(points)
+                .ok_or("parry rejected the convex polygon")?;
+            if r > 0.0 {
+                Box::new(RoundShape { inner_shape: polygon, border_radius: r })
+            } else {
+                Box::new(polygon)
+            }
+        }
+    };
+    Ok((built, Vector::ZERO))
+}
+
+/// The angle-model motion of a README sweep for a shape whose frame origin is the body-local
+/// point `offset`: the centre of mass starts at `c0`, moves by `c1 - c0` and turns by
+/// `a1 - a0` about itself over the unit time.
+fn parry_motion(s: &oracle::SweepJson, offset: Vector) -> NonlinearRigidMotion {
+    let local_center = parry_vector(s.local_center) - offset;
+    let c0 = parry_vector(s.c0);
+    let start = Pose::new(c0 - Pose::rotation(s.a0).rotation * local_center, s.a0);
+    NonlinearRigidMotion::new(start, local_center, parry_vector(s.c1) - c0, s.a1 - s.a0)
+}
+
+fn parry_case(case: &Case) -> Result<ParryCase, String> {
+    let (shape_a, offset_a) = parry_shape(&case.a)?;
+    let (shape_b, offset_b) = parry_shape(&case.b)?;
+    Ok(ParryCase {
+        shape_a,
+        motion_a: parry_motion(&case.sweep_a, offset_a),
+        shape_b,
+        motion_b: parry_motion(&case.sweep_b, offset_b),
+    })
+}
+
+fn box2d_sweep(s: &oracle::SweepJson) -> boxdd::Result<boxdd::Sweep> {
+    boxdd::Sweep::new(
+        s.local_center,
+        s.c0,
+        s.c1,
+        boxdd::Rot::from_radians(s.a0)?,
+        boxdd::Rot::from_radians(s.a1)?,
+    )
+}
+
+fn box2d_input(case: &Case) -> boxdd::Result<boxdd::ToiInput> {
+    boxdd::ToiInput::new(
+        boxdd::ShapeProxy::new(case.a.points.iter().copied(), case.a.radius)?,
+        boxdd::ShapeProxy::new(case.b.points.iter().copied(), case.b.radius)?,
+        box2d_sweep(&case.sweep_a)?,
+        box2d_sweep(&case.sweep_b)?,
+    )
+}
+
+// ---------------------------------------------------------------------------------------------
+// Calling each implementation
+// ---------------------------------------------------------------------------------------------
+
+fn call_ours(input: &ToiInput) -> ToiOutput {
+    time_of_impact(input)
+}
+
+fn call_box2d(input: &boxdd::ToiInput) -> boxdd::Result<boxdd::ToiOutput> {
+    boxdd::time_of_impact(*input)
+}
+
+fn call_parry(
+    c: &ParryCase,
+) -> Result<Option<parry2d::query::ShapeCastHit>, parry2d::query::Unsupported> {
+    cast_shapes_nonlinear(&c.motion_a, &*c.shape_a, &c.motion_b, &*c.shape_b, 0.0, 1.0, true)
+}
+
+/// A reported state with its fraction, any non-finite or out-of-range fraction read as a
+/// failure.
+fn answer(state: Reported, t: f32) -> (Reported, f64) {
+    if state != Reported::Failed && !(0.0..=1.0).contains(&t) {
+        return (Reported::Failed, 0.0);
+    }
+    (state, f64::from(t))
+}
+
+fn interpret_ours(out: &ToiOutput) -> (Reported, f64) {
+    answer(out.state.into(), out.fraction)
+}
+
+fn interpret_box2d(out: &boxdd::Result<boxdd::ToiOutput>) -> (Reported, f64) {
+    use boxdd::ToiState as S;
+    match out {
+        Ok(out) => match out.state {
+            S::Hit => answer(Reported::Hit, out.fraction),
+            S::Separated => answer(Reported::Separated, out.fraction),
+            S::Overlapped => answer(Reported::Overlapped, out.fraction),
+            S::Failed | S::Unknown => (Reported::Failed, 0.0),
+        },
+        Err(_) => (Reported::Failed, 0.0),
+    }
+}
+
+fn interpret_parry(
+    out: &Result<Option<parry2d::query::ShapeCastHit>, parry2d::query::Unsupported>,
+) -> (Reported, f64) {
+    match out {
+        Ok(None) => (Reported::Separated, 1.0),
+        Ok(Some(hit)) => {
+            let t = hit.time_of_impact;
+            match hit.status {
+                ShapeCastStatus::Converged | ShapeCastStatus::OutOfIterations => {
+                    answer(Reported::Hit, t)
+                }
+                ShapeCastStatus::PenetratingOrWithinTargetDist if t == 0.0 => {
+                    answer(Reported::Overlapped, t)
+                }
+                ShapeCastStatus::PenetratingOrWithinTargetDist => answer(Reported::Hit, t),
+                ShapeCastStatus::Failed => (Reported::Failed, 0.0),
+            }
+        }
+        Err(_) => (Reported::Failed, 0.0),
+    }
+}
+
+/// Runs `f`, turning a panic into `None` (the panic message is silenced by the caller's hook).
+fn guarded<T>(f: impl FnOnce() -> T) -> Option<T> {
+    catch_unwind(AssertUnwindSafe(f)).ok()
+}
+
+// ---------------------------------------------------------------------------------------------
+// Scoring
+// ---------------------------------------------------------------------------------------------
+
+/// The scores of one implementation on one family.
+#[derive(Default)]
+struct Tally {
+    verdicts: BTreeMap<Verdict, usize>,
+    unsupported: usize,
+    /// Cases it could not be run on (input rejected while building, or a panic): scored
+    /// failed and left out of the timing.
+    not_run: usize,
+    /// `|d(t)|` at every hit and overlap (m).
+    abs_d: Vec<f64>,
+    /// Cases timed.
+    timed: usize,
+    /// Median time per call (ns) and where it comes from.
+    ns_per_call: Option<(f64, Timing)>,
+}
+
+impl Tally {
+    fn add(&mut self, scored: Option<(Verdict, Option<f64>)>) {
+        match scored {
+            None => self.unsupported += 1,
+            Some((verdict, d)) => {
+                *self.verdicts.entry(verdict).or_default() += 1;
+                if let Some(d) = d {
+                    self.abs_d.push(d.abs());
+                }
+            }
+        }
+    }
+
+    /// A case the implementation could not be run on: failed, and not timed.
+    fn add_not_run(&mut self) {
+        self.not_run += 1;
+        self.add(Some((Verdict::Failed, None)));
+    }
+
+    fn count(&self, verdict: Verdict) -> usize {
+        self.verdicts.get(&verdict).copied().unwrap_or(0)
+    }
+
+    /// No miss, no failure, nothing unsupported.
+    fn right(&self) -> bool {
+        self.count(Verdict::Miss) == 0 && self.count(Verdict::Failed) == 0 && self.unsupported == 0
+    }
+}
+
+/// Where a time per call comes from.
+#[derive(Clone, Copy)]
+enum Timing {
+    /// Criterion's median of this run.
+    Criterion,
+    /// The median of this many self-timed passes.
+    SelfTimed(usize),
+}
+
+/// Our own counters, summed over a family.
+#[derive(Default)]
+struct OursStats {
+    iterations: u64,
+    max_iterations: u32,
+    root_iterations: u64,
+    certify_evaluations: u64,
+}
+
+/// One family, prepared for every implementation.
+struct Family<'a> {
+    name: &'static str,
+    cases: Vec<&'a Case>,
+    ours: Vec<ToiInput>,
+    box2d: Vec<boxdd::ToiInput>,
+    parry: Vec<ParryCase>,
+    tallies: BTreeMap<Engine, Tally>,
+    ours_stats: OursStats,
+}
+
+impl<'a> Family<'a> {
+    /// Builds every implementation's inputs and scores one run of each (untimed).
+    fn prepare(name: &'static str, all: &'a [Case]) -> Self {
+        let cases: Vec<&Case> = all.iter().filter(|c| c.family == name).collect();
+        let mut family = Family {
+            name,
+            ours: Vec::with_capacity(cases.len()),
+            box2d: Vec::with_capacity(cases.len()),
+            parry: Vec::with_capacity(cases.len()),
+            cases,
+            tallies: Engine::ALL.iter().map(|&e| (e, Tally::default())).collect(),
+            ours_stats: OursStats::default(),
+        };
+        for i in 0..family.cases.len() {
+            family.score_case(i);
+        }
+        for (engine, tally) in &mut family.tallies {
+            tally.timed = match engine {
+                Engine::Ours => family.ours.len(),
+                Engine::Box2d => family.box2d.len(),
+                Engine::Parry => family.parry.len(),
+            };
+        }
+        family
+    }
+
+    fn score_case(&mut self, i: usize) {
+        let case = self.cases[i];
+        let score = |engine: Engine, (state, t): (Reported, f64)| {
+            score_model(case, engine.model(), state, t)
+        };
+
+        let input = case.input();
+        let out = call_ours(&input);
+        self.ours_stats.iterations += u64::from(out.iterations);
+        self.ours_stats.max_iterations = self.ours_stats.max_iterations.max(out.iterations);
+        self.ours_stats.root_iterations += u64::from(out.root_iterations);
+        self.ours_stats.certify_evaluations += u64::from(out.certify_evaluations);
+        let scored = score(Engine::Ours, interpret_ours(&out));
+        self.tally(Engine::Ours).add(scored);
+        self.ours.push(input);
+
+        match box2d_input(case)
+            .ok()
+            .and_then(|input| Some((input, guarded(|| interpret_box2d(&call_box2d(&input)))?)))
+        {
+            Some((input, result)) => {
+                self.tally(Engine::Box2d).add(score(Engine::Box2d, result));
+                self.box2d.push(input);
+            }
+            None => self.tally(Engine::Box2d).add_not_run(),
+        }
+
+        match parry_case(case)
+            .ok()
+            .and_then(|c| Some((guarded(|| interpret_parry(&call_parry(&c)))?, c)))
+        {
+            Some((result, c)) => {
+                self.tally(Engine::Parry).add(score(Engine::Parry, result));
+                self.parry.push(c);
+            }
+            None => self.tally(Engine::Parry).add_not_run(),
+        }
+    }
+
+    fn tally(&mut self, engine: Engine) -> &mut Tally {
+        self.tallies.get_mut(&engine).expect("a tally per engine")
+    }
+
+    /// One pass over the family's cases through `engine`, results kept from the optimiser.
+    fn pass(&self, engine: Engine) {
+        match engine {
+            Engine::Ours => {
+                for input in &self.ours {
+                    black_box(call_ours(black_box(input)));
+                }
+            }
+            Engine::Box2d => {
+                for input in &self.box2d {
+                    // The result owns nothing; dropping it is free.
+                    let _ = black_box(call_box2d(black_box(input)));
+                }
+            }
+            Engine::Parry => {
+                for c in &self.parry {
+                    let _ = black_box(call_parry(black_box(c)));
+                }
+            }
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Timing
+// ---------------------------------------------------------------------------------------------
+
+/// How the binary was invoked, mirroring criterion's own reading of the arguments.
+struct RunMode {
+    /// `cargo bench` (not `cargo test --benches`, `--test`, `--list` or `--profile-time`):
+    /// criterion measures and saves estimates.
+    measuring: bool,
+    /// `--list`: criterion only lists the benchmarks; no table.
+    listing: bool,
+    /// `cargo test --benches` or `--test`: one quick pass each.
+    testing: bool,
+}
+
+impl RunMode {
+    fn from_args() -> Self {
+        let args: Vec<String> = std::env::args().collect();
+        let has = |flag: &str| args.iter().any(|a| a == flag);
+        let testing = !has("--bench") || has("--test");
+        let listing = has("--list");
+        let profiling = args.iter().any(|a| a.starts_with("--profile-time"));
+        RunMode { measuring: !testing && !listing && !profiling, listing, testing }
+    }
+}
+
+/// The cargo target directory: `CARGO_TARGET_DIR`, else three levels above this executable
+/// (`<target>/<profile>/deps/toi-<hash>`), else `target`.
+fn target_dir() -> PathBuf {
+    if let Some(dir) = std::env::var_os("CARGO_TARGET_DIR") {
+        return PathBuf::from(dir);
+    }
+    std::env::current_exe()
+        .ok()
+        .and_then(|exe| exe.ancestors().nth(3).map(PathBuf::from))
+        .unwrap_or_else(|| PathBuf::from("target"))
+}
+
+/// Where criterion writes its estimates (its own order of preference).
+fn criterion_dir() -> PathBuf {
+    std::env::var_os("CRITERION_HOME")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| target_dir().join("criterion"))
+}
+
+/// Criterion's median time per iteration (ns) of `group/function`, if it was written by this
+/// run (modified after `since`).
+fn criterion_median(group: &str, function: &str, since: SystemTime) -> Option<f64> {
+    let path = criterion_dir().join(group).join(function).join("new").join("estimates.json");
+    let fresh = std::fs::metadata(&path).ok()?.modified().ok()? >= since;
+    if !fresh {
+        return None;
+    }
+    let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(path).ok()?).ok()?;
+    json["median"]["point_estimate"].as_f64().filter(|ns| ns.is_finite() && *ns > 0.0)
+}
+
+/// The median time (ns) of `passes` runs of `f`, after one warm-up run.
+fn self_timed_median(passes: usize, mut f: impl FnMut()) -> f64 {
+    f();
+    let mut times: Vec<f64> = (0..passes)
+        .map(|_| {
+            let start = Instant::now();
+            f();
+            start.elapsed().as_secs_f64() * 1e9
+        })
+        .collect();
+    times.sort_by(f64::total_cmp);
+    times[times.len() / 2]
+}
+
+fn group_name(family: &str) -> String {
+    format!("toi-{family}")
+}
+
+/// Benchmarks one family with criterion (one function per implementation), then fills in the
+/// time per call of each.
+fn bench_family(c: &mut Criterion, family: &mut Family<'_>, mode: &RunMode, since: SystemTime) {
+    let group = group_name(family.name);
+    {
+        let mut g = c.benchmark_group(&group);
+        for engine in Engine::ALL {
+            let timed = family.tallies[&engine].timed;
+            if timed == 0 {
+                continue;
+            }
+            g.throughput(Throughput::Elements(timed as u64));
+            let f: &Family<'_> = family;
+            g.bench_function(engine.name(), |b| b.iter(|| f.pass(engine)));
+        }
+        g.finish();
+    }
+    let passes = if mode.testing { 3 } else { 21 };
+    for engine in Engine::ALL {
+        let timed = family.tallies[&engine].timed;
+        if timed == 0 {
+            continue;
+        }
+        let per_call = |ns_per_pass: f64| ns_per_pass / timed as f64;
+        let measured = mode
+            .measuring
+            .then(|| criterion_median(&group, engine.name(), since))
+            .flatten()
+            .map(|ns| (per_call(ns), Timing::Criterion));
+        let ns = measured.unwrap_or_else(|| {
+            let f: &Family<'_> = family;
+            (per_call(self_timed_median(passes, || f.pass(engine))), Timing::SelfTimed(passes))
+        });
+        family.tally(engine).ns_per_call = Some(ns);
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// The table
+// ---------------------------------------------------------------------------------------------
+
+fn median(values: &[f64]) -> Option<f64> {
+    let mut v = values.to_vec();
+    v.sort_by(f64::total_cmp);
+    (!v.is_empty()).then(|| v[v.len() / 2])
+}
+
+fn fmt_ns(ns: Option<(f64, Timing)>) -> String {
+    match ns {
+        Some((ns, Timing::Criterion)) => format!("{ns:.0}"),
+        Some((ns, Timing::SelfTimed(passes))) => format!("{ns:.0} (self, {passes} passes)"),
+        None => "–".into(),
+    }
+}
+
+fn fmt_len(m: Option<f64>) -> String {
+    m.map_or_else(|| "–".into(), |m| format!("{m:.1e}"))
+}
+
+/// The fastest peer that got the family right, and the fastest peer at all.
+fn fastest_peers(family: &Family<'_>) -> (Option<(Engine, f64)>, Option<(Engine, f64)>) {
+    let mut right = None;
+    let mut any = None;
+    for engine in [Engine::Box2d, Engine::Parry] {
+        let tally = &family.tallies[&engine];
+        let Some((ns, _)) = tally.ns_per_call else { continue };
+        let better = |best: Option<(Engine, f64)>| best.is_none_or(|(_, b)| ns < b);
+        if better(any) {
+            any = Some((engine, ns));
+        }
+        if tally.right() && better(right) {
+            right = Some((engine, ns));
+        }
+    }
+    (right, any)
+}
+
+fn ratio(family: &Family<'_>, peer: Option<(Engine, f64)>) -> Option<(f64, Engine)> {
+    let (ours, _) = family.tallies[&Engine::Ours].ns_per_call?;
+    peer.map(|(engine, ns)| (ours / ns, engine))
+}
+
+fn fmt_ratio(r: Option<(f64, Engine)>) -> String {
+    r.map_or_else(|| "– (none)".into(), |(r, e)| format!("{r:.2} ({})", e.name()))
+}
+
+fn family_table(out: &mut String, family: &Family<'_>) {
+    let n = family.cases.len();
+    let _ = writeln!(out, "### {} ({n} cases)\n", family.name);
+    let _ = writeln!(
+        out,
+        "| impl | model | correct | miss | late | early | ghost | failed | unsupported \
+         | median \\|d\\| at hits (m) | max \\|d\\| (m) | ns/call (median) | right |"
+    );
+    let _ = writeln!(out, "|---|---|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|:-:|");
+    for engine in Engine::ALL {
+        let t = &family.tallies[&engine];
+        let counts: Vec<String> = VERDICTS.iter().map(|&v| t.count(v).to_string()).collect();
+        let max_d = t.abs_d.iter().copied().fold(None, |m: Option<f64>, d| Some(m.map_or(d, |m| m.max(d))));
+        let _ = writeln!(
+            out,
+            "| {} | {} | {} | {} | {} | {} | {} | {} |",
+            engine.name(),
+            engine.model().name(),
+            counts.join(" | "),
+            t.unsupported,
+            fmt_len(median(&t.abs_d)),
+            fmt_len(max_d),
+            fmt_ns(t.ns_per_call),
+            if t.right() { "yes" } else { "no" },
+        );
+    }
+    let notes: Vec<String> = Engine::ALL
+        .iter()
+        .filter(|&&e| family.tallies[&e].not_run > 0)
+        .map(|&e| format!("{} could not run {} case(s) (scored failed, not timed)", e.name(), family.tallies[&e].not_run))
+        .collect();
+    let s = &family.ours_stats;
+    let per = |x: u64| x as f64 / n.max(1) as f64;
+    let _ = writeln!(
+        out,
+        "\nours per call: {:.2} advance iterations (max {}), {:.2} root iterations, \
+         {:.2} certification evaluations.",
+        per(s.iterations),
+        s.max_iterations,
+        per(s.root_iterations),
+        per(s.certify_evaluations),
+    );
+    let (right, any) = fastest_peers(family);
+    let _ = writeln!(
+        out,
+        "ours / fastest right peer: {}; ours / fastest peer: {}.",
+        fmt_ratio(ratio(family, right)),
+        fmt_ratio(ratio(family, any)),
+    );
+    for note in notes {
+        let _ = writeln!(out, "{note}.");
+    }
+    let _ = writeln!(out);
+}
+
+fn summary_table(out: &mut String, families: &[Family<'_>]) {
+    let _ = writeln!(
+        out,
+        "| family | cases | ours ns/call | box2d ns/call | parry ns/call | right (ours/box2d/parry) \
+         | ours / fastest right peer | ours / fastest peer | target <= {RATIO_TARGET} |"
+    );
+    let _ = writeln!(out, "|---|--:|--:|--:|--:|:-:|--:|--:|:-:|");
+    for family in families {
+        let ns = |e: Engine| fmt_ns(family.tallies[&e].ns_per_call);
+        let right: Vec<&str> = Engine::ALL
+            .iter()
+            .map(|e| if family.tallies[e].right() { "y" } else { "n" })
+            .collect();
+        let (right_peer, any_peer) = fastest_peers(family);
+        let to_right = ratio(family, right_peer);
+        let verdict = match to_right {
+            Some((r, _)) if r <= RATIO_TARGET => "met".to_string(),
+            Some((r, _)) => {
+                format!("missed by {:.2} (needs {:.0}% less time)", r - RATIO_TARGET, (1.0 - RATIO_TARGET / r) * 100.0)
+            }
+            None => "no right peer".to_string(),
+        };
+        let _ = writeln!(
+            out,
+            "| {} | {} | {} | {} | {} | {} | {} | {} | {} |",
+            family.name,
+            family.cases.len(),
+            ns(Engine::Ours),
+            ns(Engine::Box2d),
+            ns(Engine::Parry),
+            right.join("/"),
+            fmt_ratio(to_right),
+            fmt_ratio(ratio(family, any_peer)),
+            verdict,
+        );
+    }
+    let _ = writeln!(out);
+}
+
+fn report(families: &[Family<'_>], mode: &RunMode) -> String {
+    let mut out = String::new();
+    let _ = writeln!(out, "## Time of impact: ours vs Box2D v3 (boxdd) vs parry2d\n");
+    let _ = writeln!(
+        out,
+        "ns/call: criterion's median time for all the family's cases / cases timed{}. \
+         Right: no miss, no failure, no unsupported case. Each result is scored against the \
+         reference of the model it follows (ours, parry: angle; box2d: nlerp).\n",
+        if mode.measuring { "" } else { " (no criterion estimates in this mode: self-timed)" },
+    );
+    summary_table(&mut out, families);
+    for family in families {
+        family_table(&mut out, family);
+    }
+    out
+}
+
+fn main() {
+    let mode = RunMode::from_args();
+    let mut criterion = Criterion::default()
+        .warm_up_time(Duration::from_secs(1))
+        .measurement_time(Duration::from_secs(3))
+        .configure_from_args();
+    if mode.listing {
+        // Criterion lists the benchmarks it is given; the inputs don't matter.
+        for family in FAMILIES {
+            let mut g = criterion.benchmark_group(group_name(family));
+            for engine in Engine::ALL {
+                g.bench_function(engine.name(), |b| b.iter(|| ()));
+            }
+            g.finish();
+        }
+        return;
+    }
+
+    // Box2D's standalone queries need the process-wide foundation (default: metres).
+    if let Err(e) = boxdd::Foundation::initialize_default() {
+        eprintln!("warning: Box2D foundation not initialised ({e}); box2d results will fail");
+    }
+    let cases = load_cases();
+    // Peers' panics are caught and scored as failures; keep their messages off the output.
+    let hook = std::panic::take_hook();
+    std::panic::set_hook(Box::new(|_| {}));
+    let mut families: Vec<Family<'_>> = FAMILIES.iter().map(|&f| Family::prepare(f, &cases)).collect();
+    std::panic::set_hook(hook);
+    let listed: usize = families.iter().map(|f| f.cases.len()).sum();
+    if listed != cases.len() {
+        eprintln!("warning: {} case(s) belong to no known family", cases.len() - listed);
+    }
+
+    let since = SystemTime::now();
+    for family in &mut families {
+        bench_family(&mut criterion, family, &mode, since);
+    }
+
+    let table = report(&families, &mode);
+    println!("\n{table}");
+    let path = target_dir().join("toi-bench-table.md");
+    match std::fs::write(&path, &table) {
+        Ok(()) => println!("table written to {}", path.display()),
+        Err(e) => eprintln!("warning: could not write {}: {e}", path.display()),
+    }
+    criterion.final_summary();
+}

@@ -239,10 +239,14 @@ fn circles_that_pass_each_other_are_separated() {
 // Points and boxes against a plane
 // ---------------------------------------------------------------------------------------------
 
+/// Half-extent (m) of the two planes.
+const PLANE_HALF_EXTENT: f32 = 10.0;
+
 /// The two "planes": a long static segment on y = 0, and the top face (y = 0) of a wide box.
 fn planes() -> [(&'static str, ShapeProxy, Sweep); 2] {
-    let seg = Shape::from(Segment::new(Vec2::new(-100.0, 0.0), Vec2::new(100.0, 0.0)).unwrap());
-    let slab = Shape::from(Polygon::rectangle(100.0, 1.0).unwrap());
+    let e = PLANE_HALF_EXTENT;
+    let seg = Shape::from(Segment::new(Vec2::new(-e, 0.0), Vec2::new(e, 0.0)).unwrap());
+    let slab = Shape::from(Polygon::rectangle(e, 1.0).unwrap());
     [
         ("segment plane", seg.proxy(), Sweep::stationary(Vec2::ZERO, Vec2::ZERO, 0.0)),
         ("box plane", slab.proxy(), Sweep::stationary(Vec2::ZERO, Vec2::new(0.0, -1.0), 0.0)),
@@ -251,7 +255,7 @@ fn planes() -> [(&'static str, ShapeProxy, Sweep); 2] {
 
 /// Surface distance from a body (given by its core points, radius and sweep) to the plane
 /// y = 0, in `f64`: the lowest core point minus the radius. Exact while the body stays within
-/// |x| < 100 (the extent of both planes), which every case here does.
+/// |x| < 10 (the extent of both planes), which every case here does.
 fn height_above_plane(points: &[Vec2], radius: f64, sweep: &Sweep, t: f64) -> f64 {
     points.iter().map(|p| world(sweep, *p, t)[1]).fold(f64::INFINITY, f64::min) - radius
 }
@@ -324,9 +328,16 @@ fn box_against_plane_translation_and_rotation() {
             assert_hit_in_window(&out, &d, EPS, &what);
             let t_star = (2.0 - hy as f64 - r - SLOP) / 3.0;
             assert!((out.fraction as f64 - t_star).abs() <= (TOL + EPS) / 3.0, "{what}");
-            // The normal is vertical: (0, -1) from the box (A) to the plane (B). 1e-4 rad of
-            // f32 noise is plenty; a wrong face would be off by a right angle.
-            assert!((out.normal - Vec2::new(0.0, -1.0)).length() < 1e-4, "{what}: {out:?}");
+            // The normal is vertical: (0, -1) from the box (A) to the plane (B). GJK takes the
+            // normal from the difference of the two witness points, whose coordinates reach the
+            // plane's extent: each carries ~1 ulp of that (9.5e-7 m at 10 m), over a 5 mm gap.
+            // So allow 4 ulps / 3.75 mm ~ 1e-3 rad; a wrong face would be off by a right angle.
+            // (With a 100 m plane this error was measured at 5.3e-4 rad.)
+            let normal_tol = 4.0 * PLANE_HALF_EXTENT * f32::EPSILON / (0.75 * LINEAR_SLOP);
+            assert!(
+                (out.normal - Vec2::new(0.0, -1.0)).length() < normal_tol,
+                "{what}: {out:?}"
+            );
 
             // Translation with rotation: 1.25 turns while falling, with an off-centre centre of
             // mass, so corners lead in turn.
@@ -433,7 +444,13 @@ fn catto_rotating_triangle_default_slop() {
 /// The same triangle with the pivot held just outside the hit band: at
 /// `slop + slop/4 + h` for h = 1e-2 .. 1e-6. As h shrinks the pivot approaches the band edge,
 /// which is where conservative advancement would crawl (its step is the gap over the speed
-/// bound); the answer must stay the tip's hit, and the iteration count must not grow.
+/// bound); the answer must stay the tip's hit, and the iteration count must stay bounded.
+///
+/// Why the count is bounded here: skipped intervals are certified against the level
+/// `slop - slop/4`, so the gap the certification works with is `2 slop/4 + h`, never less than
+/// 2.5 mm however small h is. The count therefore rises from h = 1e-2 (gap 12.5 mm) to
+/// h = 1e-4 (gap 2.6 mm) and then stays flat: that flat tail is what is asserted. (Where the
+/// gap itself shrinks with h, the count does grow: see the ignored tests below.)
 #[test]
 fn catto_rotating_triangle_pivot_just_outside_band() {
     let mut iterations = Vec::new();
@@ -446,11 +463,84 @@ fn catto_rotating_triangle_pivot_just_outside_band() {
         assert!(out.fraction > 0.4, "h={h}: {out:?}");
         iterations.push(out.iterations);
     }
+    // A constant bound over all h: a 1.57 m/step Lipschitz bound over half a step against a
+    // 2.5 mm gap needs ~160 certified pieces at 24 evaluations per advance, i.e. about 7-12
+    // advances; 16 leaves room without hiding a regression towards the 200 iteration cap.
+    assert!(iterations.iter().all(|&n| n <= 16), "iterations {iterations:?} exceed 16");
+    // Does not grow as h shrinks once the band floor dominates the gap (h <= 1e-4).
+    let tail = &iterations[2..];
+    let (max, min) = (*tail.iter().max().unwrap(), *tail.iter().min().unwrap());
+    assert!(max - min <= 1, "iterations grow as h shrinks: {iterations:?}");
+}
+
+/// Catto's worst case proper: the slop scaled with h (slop = h / 2), so the pivot is always
+/// outside the band by the same proportion and only the tip can make the hit. The geometry is
+/// then the same at every h except for the ratio of the triangle (1 m) to the gap (h), which is
+/// exactly what bilateral advancement is supposed to be insensitive to.
+///
+/// FAILS (toi.rs): the certification of skipped intervals uses a Lipschitz bound
+/// (`L = |w| reach`), i.e. conservative advancement, so its cost is ~ L / gap: measured
+/// iterations are 5 (h = 1e-2), 49 (h = 1e-3) and at h = 3e-4 (slop = 1.5e-4 m, inside the
+/// documented working range of the slop, "below about 1e-4 m ... may fail") the query stops
+/// with `Failed(IterationLimit)` after 200 advances at fraction ~0.02.
+#[test]
+#[ignore = "toi.rs bug: certification cost grows like 1/h in Catto's worst case; \
+            h = 3e-4 with slop = 1.5e-4 ends in Failed(IterationLimit)"]
+fn catto_rotating_triangle_slop_scaled_with_h() {
+    let mut iterations = Vec::new();
+    for h in [1e-2f32, 1e-3, 3e-4] {
+        let slop = 0.5 * h;
+        let (out, d) = catto_triangle(h, slop);
+        let what = format!("catto h={h} slop={slop}");
+        assert_eq!(out.state, ToiState::Hit, "{what}: {out:?}");
+        // The band for this slop, with the same f32 allowance as elsewhere (EPS = 1e-5 m is
+        // 7% of the smallest band here, 1.5e-4 / 4 * 2).
+        let (s, tol) = (slop as f64, 0.25 * slop as f64);
+        let dist = d(out.fraction as f64);
+        assert!((dist - s).abs() <= tol + EPS, "{what}: distance {dist} at {out:?}");
+        assert!(out.fraction > 0.4, "{what}: the tip makes the hit: {out:?}");
+        iterations.push(out.iterations);
+    }
     let max = *iterations.iter().max().unwrap();
     let min = *iterations.iter().min().unwrap();
-    // The bound: a handful of advances, the same for every h.
-    assert!(max <= 10, "iterations {iterations:?} exceed 10");
-    assert!(max - min <= 1, "iterations grow as h shrinks: {iterations:?}");
+    assert!(max <= 16 && max - min <= 2, "iterations grow as h shrinks: {iterations:?}");
+}
+
+/// The same worst case at the default slop, made hard by size instead of by h: a 16 m triangle
+/// pivoting 8 mm above the ground (3 mm outside the band) while it turns a quarter turn. The
+/// tip reaches the ground half way through the step.
+///
+/// FAILS (toi.rs): the certification cost grows with the Lipschitz bound `|w| reach`, i.e. with
+/// the size of the body: measured 8 advances at 1 m, 14 at 2 m, 28 at 4 m, 59 at 8 m, and at
+/// 16 m the query ends in `Failed(IterationLimit)` at fraction ~0.03. (A 32 m body fails even
+/// turning a tenth of a turn.)
+#[test]
+#[ignore = "toi.rs bug: a 16 m body pivoting 8 mm above a plane while turning a quarter turn \
+            ends in Failed(IterationLimit)"]
+fn catto_rotating_triangle_large_body_default_slop() {
+    let scale = 16.0f32;
+    let tri = ShapeProxy::new(
+        &[Vec2::ZERO, Vec2::new(scale, 0.0), Vec2::new(0.5 * scale, 0.5 * scale)],
+        0.0,
+    )
+    .unwrap();
+    let plane = Shape::from(Segment::new(Vec2::new(-100.0, 0.0), Vec2::new(100.0, 0.0)).unwrap());
+    let a0 = std::f32::consts::FRAC_PI_4;
+    let height = 0.008f32;
+    let sweep = Sweep::new(Vec2::ZERO, Vec2::new(0.0, height), a0, Vec2::new(0.0, height), -a0);
+    let input = ToiInput::new(
+        tri,
+        sweep,
+        plane.proxy(),
+        Sweep::stationary(Vec2::ZERO, Vec2::ZERO, 0.0),
+    );
+    let out = time_of_impact(&input);
+    // Lowest point: the pivot (at `height`) or the tip (at height + 16 sin(angle)).
+    let (h, a0, a1) = (height as f64, sweep.a0 as f64, sweep.a1 as f64);
+    let d = |t: f64| h + scale as f64 * (a0 + t * (a1 - a0)).sin().min(0.0);
+    // Coordinates reach 16 m: one f32 ulp there is 1.9e-6 m, so EPS (1e-5 m) still covers a
+    // few ulps of pose and distance rounding.
+    assert_hit_in_window(&out, &d, EPS, "16 m catto triangle");
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -580,16 +670,3 @@ fn bullet_stopping_short_or_moving_away_is_separated() {
     }
 }
 
-#[test]
-fn zz_experiment() {
-    for h in [1e-2f32, 3e-3, 1e-3, 3e-4, 1e-4, 3e-5, 1e-5] {
-        for k in [2.0f32, 4.0] {
-        let (out, d) = catto_triangle(h, h / k);
-        eprintln!("h={h} slop={} {:?} t={} it={} cert={} root={} d={}", h/k, out.state, out.fraction, out.iterations, out.certify_evaluations, out.root_iterations, d(out.fraction as f64));
-        }
-    }
-    for h in [1e-2f32, 1e-3, 1e-4, 1e-5, 1e-6] {
-        let (out, _) = catto_triangle(LINEAR_SLOP * 1.25 + h, LINEAR_SLOP);
-        eprintln!("band+{h}: it={} cert={} root={}", out.iterations, out.certify_evaluations, out.root_iterations);
-    }
-}

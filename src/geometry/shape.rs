@@ -274,13 +274,15 @@ impl Polygon {
         }
         let n = vertices.len();
         let tol = hull_tolerance(vertices);
+        // Repeated consecutive vertices first (the closing vertex repeated included), so that
+        // the answer does not depend on where in the loop the repeat sits.
+        if (0..n).any(|i| vertices[i].distance(vertices[(i + 1) % n]) <= tol) {
+            return Err(ShapeError::TooFewPoints);
+        }
         for i in 0..n {
             let a = vertices[i];
             let b = vertices[(i + 1) % n];
             let c = vertices[(i + 2) % n];
-            if a.distance(b) <= tol {
-                return Err(ShapeError::TooFewPoints);
-            }
             // Strict left turn at every vertex, measured against the edge lengths so that the
             // test does not depend on scale.
             if cross(b - a, c - b) <= tol * ((b - a).length() + (c - b).length()) {
@@ -289,9 +291,14 @@ impl Polygon {
         }
         // A strictly left-turning loop can still wind around more than once (a star); its
         // signed area then exceeds the hull's. The hull of the same points must be the same
-        // loop.
+        // loop: the same points in the same cyclic order (a pentagram visits exactly its
+        // hull's five points, in another order). The hull returns input points unchanged, so
+        // the comparison is exact, up to the starting vertex.
         let hull = convex_hull(vertices)?;
-        if hull.len() != n {
+        let start = vertices.iter().position(|v| *v == hull[0]);
+        let same_loop = hull.len() == n
+            && start.is_some_and(|s| (0..n).all(|k| vertices[(s + k) % n] == hull[k]));
+        if !same_loop {
             return Err(ShapeError::NotConvex);
         }
         Self::from_hull(vertices, radius)

@@ -1,6 +1,7 @@
 //! The Bevy face of the crate: [`CcdPlugin`], its ordered phases [`CcdSystems`], the
 //! [`CcdConfig`] resource, the components and the [`CcdImpact`] message.
 
+mod arena;
 mod components;
 mod systems;
 pub mod testing;

@@ -37,6 +37,7 @@ use bevy_time::{Fixed, Time, TimePlugin, TimeUpdateStrategy};
 use bevy_transform::components::Transform;
 use glam::{Quat, Vec3};
 
+pub use super::arena::{Arena, ArenaConfig, SceneRng, deepest_penetration, spawn_arena};
 use super::{CcdEnabled, CcdPlugin, Collider, StaticCollider, Velocity};
 use crate::geometry::{Aabb, Pose};
 
@@ -65,11 +66,24 @@ impl StepFixed for App {
     }
 }
 
-/// A movement system for tests and demos: moves every body with a [`Velocity`] by
-/// `velocity * dt` (translation and rotation about z).
-pub fn integrate_velocity(time: Res<Time>, mut bodies: Query<(&mut Transform, &Velocity)>) {
+/// Gravity for [`integrate_velocity`] (m/s²). The default is zero.
+#[derive(Resource, Clone, Copy, Debug, Default, PartialEq)]
+pub struct Gravity(pub glam::Vec2);
+
+/// A movement system for tests and demos (symplectic Euler): adds `gravity * dt` to every
+/// [`Velocity`] (if a [`Gravity`] resource exists), then moves the body by `velocity * dt`
+/// (translation and rotation about z).
+pub fn integrate_velocity(
+    time: Res<Time>,
+    gravity: Option<Res<Gravity>>,
+    mut bodies: Query<(&mut Transform, &mut Velocity), Without<StaticCollider>>,
+) {
     let dt = time.delta_secs();
-    for (mut transform, v) in &mut bodies {
+    let g = gravity.map_or(glam::Vec2::ZERO, |g| g.0);
+    for (mut transform, mut v) in &mut bodies {
+        if g != glam::Vec2::ZERO {
+            v.linear += g * dt;
+        }
         transform.translation += Vec3::new(v.linear.x, v.linear.y, 0.0) * dt;
         transform.rotation = Quat::from_rotation_z(v.angular * dt) * transform.rotation;
     }

@@ -245,3 +245,160 @@ pub fn score_state(case: &Case, state: ToiState, t: f64) -> (Verdict, Option<f64
         }
     }
 }
+
+/// The rotation model a result follows (README, "Motion").
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Model {
+    /// `R(t)` is the rotation by `a0 + t (a1 - a0)`: constant angular velocity, any number of
+    /// turns. Ours and parry follow it.
+    Angle,
+    /// `R(t)` is the rotation whose (cos, sin) is
+    /// `normalize((1 - t)(cos a0, sin a0) + t (cos a1, sin a1))`. Box2D's `b2Sweep` follows it.
+    Nlerp,
+}
+
+impl Model {
+    /// The name the README uses.
+    pub fn name(self) -> &'static str {
+        match self {
+            Model::Angle => "angle",
+            Model::Nlerp => "nlerp",
+        }
+    }
+}
+
+/// The state of a result in the README's implementation-neutral terms, so results of other
+/// engines can be scored as well as ours.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Reported {
+    Hit,
+    Separated,
+    Overlapped,
+    Failed,
+}
+
+impl From<ToiState> for Reported {
+    fn from(state: ToiState) -> Self {
+        match state {
+            ToiState::Hit => Reported::Hit,
+            ToiState::Separated => Reported::Separated,
+            ToiState::Overlapped => Reported::Overlapped,
+            ToiState::Failed(_) => Reported::Failed,
+        }
+    }
+}
+
+/// The rotation `normalize((1 - t)(cos a0, sin a0) + t (cos a1, sin a1))` as (cos, sin), in
+/// f64. Falls back to the start rotation where the blend vanishes (a half turn at `t = 1/2`,
+/// where the model is undefined; such cases have no nlerp reference).
+pub fn nlerp_rotation(a0: f64, a1: f64, t: f64) -> (f64, f64) {
+    let (s0, c0) = a0.sin_cos();
+    let (s1, c1) = a1.sin_cos();
+    let c = (1.0 - t) * c0 + t * c1;
+    let s = (1.0 - t) * s0 + t * s1;
+    let len = c.hypot(s);
+    if len > 0.0 { (c / len, s / len) } else { (c0, s0) }
+}
+
+impl Case {
+    /// The reference answer of a model; `None` for nlerp when the case turns by pi or more.
+    pub fn reference(&self, model: Model) -> Option<&Reference> {
+        match model {
+            Model::Angle => Some(&self.oracle.angle),
+            Model::Nlerp => self.oracle.nlerp.as_ref(),
+        }
+    }
+
+    /// World points of a shape at `t` under the nlerp model, in f64.
+    fn world_nlerp(shape: &ShapeJson, s: &SweepJson, t: f64) -> Vec<[f64; 2]> {
+        let c = [
+            s.c0[0] as f64 + t * (s.c1[0] as f64 - s.c0[0] as f64),
+            s.c0[1] as f64 + t * (s.c1[1] as f64 - s.c0[1] as f64),
+        ];
+        let (cs, sn) = nlerp_rotation(s.a0 as f64, s.a1 as f64, t);
+        shape
+            .points
+            .iter()
+            .map(|p| {
+                let x = p[0] as f64 - s.local_center[0] as f64;
+                let y = p[1] as f64 - s.local_center[1] as f64;
+                [c[0] + cs * x - sn * y, c[1] + sn * x + cs * y]
+            })
+            .collect()
+    }
+
+    /// Surface distance at `t` under the given model: positive apart, minus the depth when
+    /// overlapping. For [`Model::Angle`] this is [`Case::distance_at`].
+    pub fn distance_at_model(&self, model: Model, t: f64) -> f64 {
+        match model {
+            Model::Angle => self.distance_at(t),
+            Model::Nlerp => {
+                let pa = Self::world_nlerp(&self.a, &self.sweep_a, t);
+                let pb = Self::world_nlerp(&self.b, &self.sweep_b, t);
+                core_distance(&pa, &pb) - (self.a.radius as f64 + self.b.radius as f64)
+            }
+        }
+    }
+}
+
+/// Scores a result of any implementation against the reference of the model it follows, by
+/// every rule of the README (`score_state` is the angle-model scorer `tests/oracle.rs` uses;
+/// this one adds the nlerp model and the README's rule that a hit at `t = 0` is correct when
+/// the shapes touch at `t = 0`, which `score_state` does not need for our outputs).
+///
+/// Returns `None` (*unsupported*) for an nlerp result on a case without an nlerp reference;
+/// otherwise the verdict and, for hits and overlaps, the true surface distance at `t`.
+pub fn score_model(
+    case: &Case,
+    model: Model,
+    state: Reported,
+    t: f64,
+) -> Option<(Verdict, Option<f64>)> {
+    let r = case.reference(model)?;
+    let d_at = |s: f64| case.distance_at_model(model, s);
+    Some(match state {
+        Reported::Failed => (Verdict::Failed, None),
+        Reported::Separated => {
+            if r.min_dist >= -EPS { (Verdict::Correct, None) } else { (Verdict::Miss, None) }
+        }
+        Reported::Overlapped => {
+            let d = d_at(t);
+            if d <= EPS {
+                (Verdict::Correct, Some(d))
+            } else if r.min_dist > 4.0 * SLOP {
+                (Verdict::Ghost, Some(d))
+            } else {
+                (Verdict::Early, Some(d))
+            }
+        }
+        Reported::Hit => {
+            let d = d_at(t);
+            if t == 0.0 && r.d0 <= EPS {
+                // Touching (or overlapping) at the start and reported so.
+                return Some((Verdict::Correct, Some(d)));
+            }
+            if r.min_dist > 4.0 * SLOP {
+                return Some((Verdict::Ghost, Some(d)));
+            }
+            if d > 4.0 * SLOP {
+                return Some((Verdict::Early, Some(d)));
+            }
+            if d < -2.0 * SLOP {
+                return Some((Verdict::Miss, Some(d)));
+            }
+            if let Some(tt) = r.t_touch
+                && t > tt
+            {
+                // Tunnelled through a deeper penetration between first contact and t?
+                let n = 400;
+                for i in 0..=n {
+                    let s = tt + (t - tt) * i as f64 / n as f64;
+                    if d_at(s) < -2.0 * SLOP {
+                        return Some((Verdict::Miss, Some(d)));
+                    }
+                }
+            }
+            if d < -EPS { (Verdict::Late, Some(d)) } else { (Verdict::Correct, Some(d)) }
+        }
+    })
+}

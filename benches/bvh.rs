@@ -1,0 +1,247 @@
+//! Static BVH: ours ([`bevy_ccd::geometry::Bvh`]) against the `obvhs` crate's `Bvh2`.
+//!
+//! # The scene
+//!
+//! `N` static colliders (1,000 and 100,000) spread over a square level whose side grows with
+//! `sqrt(N)` (about one collider per 100 m²): 30 % walls (4–40 m long, 0.3–1 m thick,
+//! horizontal or vertical), 50 % boxes (0.5–4 m) and 20 % slopes (the bounds of a ramp,
+//! 3–15 m by 1–8 m). 10,000 queries are the swept bounds of bodies (half size 0.25–1 m) over
+//! one 60 Hz step: 90 % move at up to 20 m/s, 10 % are bullets at 50–300 m/s. Everything comes
+//! from a fixed xorshift seed, so every run times the same scene.
+//!
+//! # What runs
+//!
+//! - `ours`: [`Bvh::build`] (binned SAH, leaves of up to 4) and [`Bvh::query`].
+//! - `obvhs-*`: `obvhs::bvh2::Bvh2` built as `obvhs::bvh2::builder::build_bvh2` does (PLOC,
+//!   reinsertion, leaf collapse) with the `very_fast_build`, `fast_build` and `medium_build`
+//!   presets, but reusing the builder and the tree between builds, as ours does. Boxes are 3D
+//!   with a constant `z` range of `[-0.5, 0.5]` (obvhs has no 2D tree). A query is
+//!   `Bvh2::aabb_traverse` plus the per-item box test in each hit leaf, then the same sort, so
+//!   both produce the same ascending id list, which is checked before timing.
+//!
+//! Groups: `bvh-build-<N>` times one full build; `bvh-query-<N>` times one batch of 10,000
+//! queries (single thread, one reused output vector).
+//!
+//! ```text
+//! CARGO_TARGET_DIR=target-bench cargo bench --bench bvh
+//! CARGO_TARGET_DIR=target-bench cargo test --benches      # smoke test
+//! ```
+
+use std::hint::black_box;
+use std::time::Duration;
+
+use bevy_ccd::geometry::{Aabb, Bvh};
+use criterion::{Criterion, criterion_group, criterion_main};
+use glam::{Vec2, Vec3A};
+use obvhs::BvhBuildParams;
+use obvhs::aabb::Aabb as OAabb;
+use obvhs::bvh2::Bvh2;
+use obvhs::bvh2::leaf_collapser::collapse;
+use obvhs::bvh2::reinsertion::ReinsertionOptimizer;
+use obvhs::ploc::PlocBuilder;
+
+/// Swept-bound queries per batch.
+const QUERIES: usize = 10_000;
+
+/// xorshift32: a fixed, dependency-free scene generator.
+struct Rng(u32);
+
+impl Rng {
+    fn next_f32(&mut self) -> f32 {
+        let mut x = self.0;
+        x ^= x << 13;
+        x ^= x >> 17;
+        x ^= x << 5;
+        self.0 = x;
+        (x >> 8) as f32 / (1u32 << 24) as f32
+    }
+    fn range(&mut self, lo: f32, hi: f32) -> f32 {
+        lo + (hi - lo) * self.next_f32()
+    }
+}
+
+/// The level's static colliders: walls, boxes and slopes.
+fn level(n: usize, rng: &mut Rng) -> (Vec<(u32, Aabb)>, f32) {
+    let side = 10.0 * (n as f32).sqrt();
+    let items = (0..n as u32)
+        .map(|id| {
+            let p = Vec2::new(rng.range(0.0, side), rng.range(0.0, side));
+            let kind = rng.next_f32();
+            let size = if kind < 0.3 {
+                let (len, thick) = (rng.range(4.0, 40.0), rng.range(0.3, 1.0));
+                if rng.next_f32() < 0.5 { Vec2::new(len, thick) } else { Vec2::new(thick, len) }
+            } else if kind < 0.8 {
+                Vec2::new(rng.range(0.5, 4.0), rng.range(0.5, 4.0))
+            } else {
+                Vec2::new(rng.range(3.0, 15.0), rng.range(1.0, 8.0))
+            };
+            (id, Aabb { min: p, max: p + size })
+        })
+        .collect();
+    (items, side)
+}
+
+/// Swept bounds of moving bodies over one 60 Hz step.
+fn swept_queries(side: f32, rng: &mut Rng) -> Vec<Aabb> {
+    (0..QUERIES)
+        .map(|_| {
+            let p = Vec2::new(rng.range(0.0, side), rng.range(0.0, side));
+            let half = Vec2::splat(rng.range(0.25, 1.0));
+            let speed = if rng.next_f32() < 0.9 { rng.range(0.0, 20.0) } else { rng.range(50.0, 300.0) };
+            let angle = rng.range(0.0, std::f32::consts::TAU);
+            let d = Vec2::from_angle(angle) * speed / 60.0;
+            let start = Aabb { min: p - half, max: p + half };
+            start.union(Aabb { min: start.min + d, max: start.max + d })
+        })
+        .collect()
+}
+
+fn to_3d(b: &Aabb) -> OAabb {
+    OAabb::new(Vec3A::new(b.min.x, b.min.y, -0.5), Vec3A::new(b.max.x, b.max.y, 0.5))
+}
+
+/// obvhs's tree with its builder state, rebuilt like `build_bvh2` but keeping allocations.
+struct Obvhs {
+    params: BvhBuildParams,
+    builder: PlocBuilder,
+    reinsertion: ReinsertionOptimizer,
+    bvh: Bvh2,
+}
+
+impl Obvhs {
+    fn new(params: BvhBuildParams) -> Self {
+        Self {
+            params,
+            builder: PlocBuilder::new(),
+            reinsertion: ReinsertionOptimizer::default(),
+            bvh: Bvh2::default(),
+        }
+    }
+
+    fn build(&mut self, aabbs: &[OAabb]) {
+        let p = self.params;
+        self.builder.build_with_bvh(
+            &mut self.bvh,
+            p.ploc_search_distance,
+            aabbs,
+            (0..aabbs.len() as u32).collect(),
+            p.sort_precision,
+            p.search_depth_threshold,
+        );
+        self.reinsertion.run(&mut self.bvh, p.reinsertion_batch_ratio, None);
+        collapse(&mut self.bvh, p.max_prims_per_leaf.clamp(1, 255), p.collapse_traversal_cost);
+        self.reinsertion.run(
+            &mut self.bvh,
+            p.reinsertion_batch_ratio * p.post_collapse_reinsertion_batch_ratio_multiplier,
+            None,
+        );
+    }
+
+    /// Same contract as [`Bvh::query`]: ascending ids of the boxes overlapping `q`.
+    fn query(&self, aabbs: &[OAabb], q: &OAabb, out: &mut Vec<u32>) {
+        let start = out.len();
+        self.bvh.aabb_traverse(*q, |bvh, node_id| {
+            let node = &bvh.nodes[node_id as usize];
+            let first = node.first_index as usize;
+            for &prim in &bvh.primitive_indices[first..first + node.prim_count as usize] {
+                if aabbs[prim as usize].intersect_aabb(q) {
+                    out.push(prim);
+                }
+            }
+            true
+        });
+        out[start..].sort_unstable();
+    }
+}
+
+const PRESETS: [(&str, BvhBuildParams); 3] = [
+    ("obvhs-very-fast", BvhBuildParams::very_fast_build()),
+    ("obvhs-fast", BvhBuildParams::fast_build()),
+    ("obvhs-medium", BvhBuildParams::medium_build()),
+];
+
+fn bench_size(c: &mut Criterion, n: usize, label: &str) {
+    let mut rng = Rng(0x9E37_79B9 ^ n as u32);
+    let (items, side) = level(n, &mut rng);
+    let queries = swept_queries(side, &mut rng);
+    let aabbs: Vec<OAabb> = items.iter().map(|(_, b)| to_3d(b)).collect();
+    let queries3: Vec<OAabb> = queries.iter().map(to_3d).collect();
+
+    let mut ours = Bvh::new();
+    ours.build(&items);
+    let mut theirs: Vec<(&str, Obvhs)> = PRESETS
+        .iter()
+        .map(|&(name, params)| {
+            let mut t = Obvhs::new(params);
+            t.build(&aabbs);
+            (name, t)
+        })
+        .collect();
+
+    // Same answers before any timing (ids are input indices in both).
+    let (mut a, mut b) = (Vec::new(), Vec::new());
+    let mut hits = 0;
+    for (q, q3) in queries.iter().zip(&queries3) {
+        a.clear();
+        ours.query(q, &mut a);
+        hits += a.len();
+        for (name, t) in &theirs {
+            b.clear();
+            t.query(&aabbs, q3, &mut b);
+            assert_eq!(a, b, "{name} disagrees with ours on {q:?}");
+        }
+    }
+    println!(
+        "bvh {label}: {n} boxes, level {side:.0} m, {:.2} hits/query; ours: {} nodes, depth {}",
+        hits as f64 / QUERIES as f64,
+        ours.node_count(),
+        ours.depth(),
+    );
+
+    let mut group = c.benchmark_group(format!("bvh-build-{label}"));
+    group.sample_size(10).warm_up_time(Duration::from_millis(500));
+    group.measurement_time(Duration::from_secs(2));
+    group.bench_function("ours", |bench| bench.iter(|| ours.build(black_box(&items))));
+    for (name, t) in &mut theirs {
+        group.bench_function(*name, |bench| bench.iter(|| t.build(black_box(&aabbs))));
+    }
+    group.finish();
+
+    let mut out = Vec::with_capacity(1024);
+    let mut group = c.benchmark_group(format!("bvh-query-{label}"));
+    group.sample_size(10).warm_up_time(Duration::from_millis(500));
+    group.measurement_time(Duration::from_secs(2));
+    group.bench_function("ours", |bench| {
+        bench.iter(|| {
+            let mut total = 0;
+            for q in &queries {
+                out.clear();
+                ours.query(black_box(q), &mut out);
+                total += out.len();
+            }
+            total
+        })
+    });
+    for (name, t) in &theirs {
+        group.bench_function(*name, |bench| {
+            bench.iter(|| {
+                let mut total = 0;
+                for q in &queries3 {
+                    out.clear();
+                    t.query(&aabbs, black_box(q), &mut out);
+                    total += out.len();
+                }
+                total
+            })
+        });
+    }
+    group.finish();
+}
+
+fn benches(c: &mut Criterion) {
+    bench_size(c, 1_000, "1k");
+    bench_size(c, 100_000, "100k");
+}
+
+criterion_group!(bvh, benches);
+criterion_main!(bvh);
