@@ -69,13 +69,23 @@ fn level(n: usize, rng: &mut Rng) -> (Vec<(u32, Aabb)>, f32) {
             let kind = rng.next_f32();
             let size = if kind < 0.3 {
                 let (len, thick) = (rng.range(4.0, 40.0), rng.range(0.3, 1.0));
-                if rng.next_f32() < 0.5 { Vec2::new(len, thick) } else { Vec2::new(thick, len) }
+                if rng.next_f32() < 0.5 {
+                    Vec2::new(len, thick)
+                } else {
+                    Vec2::new(thick, len)
+                }
             } else if kind < 0.8 {
                 Vec2::new(rng.range(0.5, 4.0), rng.range(0.5, 4.0))
             } else {
                 Vec2::new(rng.range(3.0, 15.0), rng.range(1.0, 8.0))
             };
-            (id, Aabb { min: p, max: p + size })
+            (
+                id,
+                Aabb {
+                    min: p,
+                    max: p + size,
+                },
+            )
         })
         .collect();
     (items, side)
@@ -87,17 +97,30 @@ fn swept_queries(side: f32, rng: &mut Rng) -> Vec<Aabb> {
         .map(|_| {
             let p = Vec2::new(rng.range(0.0, side), rng.range(0.0, side));
             let half = Vec2::splat(rng.range(0.25, 1.0));
-            let speed = if rng.next_f32() < 0.9 { rng.range(0.0, 20.0) } else { rng.range(50.0, 300.0) };
+            let speed = if rng.next_f32() < 0.9 {
+                rng.range(0.0, 20.0)
+            } else {
+                rng.range(50.0, 300.0)
+            };
             let angle = rng.range(0.0, std::f32::consts::TAU);
             let d = Vec2::from_angle(angle) * speed / 60.0;
-            let start = Aabb { min: p - half, max: p + half };
-            start.union(Aabb { min: start.min + d, max: start.max + d })
+            let start = Aabb {
+                min: p - half,
+                max: p + half,
+            };
+            start.union(Aabb {
+                min: start.min + d,
+                max: start.max + d,
+            })
         })
         .collect()
 }
 
 fn to_3d(b: &Aabb) -> OAabb {
-    OAabb::new(Vec3A::new(b.min.x, b.min.y, -0.5), Vec3A::new(b.max.x, b.max.y, 0.5))
+    OAabb::new(
+        Vec3A::new(b.min.x, b.min.y, -0.5),
+        Vec3A::new(b.max.x, b.max.y, 0.5),
+    )
 }
 
 /// obvhs's tree with its builder state, rebuilt like `build_bvh2` but keeping allocations.
@@ -128,8 +151,13 @@ impl Obvhs {
             p.sort_precision,
             p.search_depth_threshold,
         );
-        self.reinsertion.run(&mut self.bvh, p.reinsertion_batch_ratio, None);
-        collapse(&mut self.bvh, p.max_prims_per_leaf.clamp(1, 255), p.collapse_traversal_cost);
+        self.reinsertion
+            .run(&mut self.bvh, p.reinsertion_batch_ratio, None);
+        collapse(
+            &mut self.bvh,
+            p.max_prims_per_leaf.clamp(1, 255),
+            p.collapse_traversal_cost,
+        );
         self.reinsertion.run(
             &mut self.bvh,
             p.reinsertion_batch_ratio * p.post_collapse_reinsertion_batch_ratio_multiplier,
@@ -199,7 +227,9 @@ fn bench_size(c: &mut Criterion, n: usize, label: &str) {
     );
 
     let mut group = c.benchmark_group(format!("bvh-build-{label}"));
-    group.sample_size(10).warm_up_time(Duration::from_millis(500));
+    group
+        .sample_size(10)
+        .warm_up_time(Duration::from_millis(500));
     group.measurement_time(Duration::from_secs(2));
     group.bench_function("ours", |bench| bench.iter(|| ours.build(black_box(&items))));
     for (name, t) in &mut theirs {
@@ -209,7 +239,9 @@ fn bench_size(c: &mut Criterion, n: usize, label: &str) {
 
     let mut out = Vec::with_capacity(1024);
     let mut group = c.benchmark_group(format!("bvh-query-{label}"));
-    group.sample_size(10).warm_up_time(Duration::from_millis(500));
+    group
+        .sample_size(10)
+        .warm_up_time(Duration::from_millis(500));
     group.measurement_time(Duration::from_secs(2));
     group.bench_function("ours", |bench| {
         bench.iter(|| {

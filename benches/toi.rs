@@ -64,7 +64,14 @@ use parry2d::query::{NonlinearRigidMotion, ShapeCastStatus, cast_shapes_nonlinea
 use parry2d::shape::{Ball, Capsule, ConvexPolygon, RoundShape, Segment, Shape};
 
 /// The families of the oracle set, in the README's order.
-const FAMILIES: [&str; 6] = ["random", "bullet", "spinning", "catto_worst_case", "grazing", "edge"];
+const FAMILIES: [&str; 6] = [
+    "random",
+    "bullet",
+    "spinning",
+    "catto_worst_case",
+    "grazing",
+    "edge",
+];
 
 /// The speed target: ours over the fastest right peer.
 const RATIO_TARGET: f64 = 0.75;
@@ -137,10 +144,16 @@ fn parry_shape(shape: &oracle::ShapeJson) -> Result<(Box<dyn Shape>, Vector), St
         [a, b] if r > 0.0 => Box::new(Capsule::new(*a, *b, r)),
         [a, b] => Box::new(Segment::new(*a, *b)),
         _ => {
-            let polygon = ConvexPolygon::from_convex_polyline(points)
+            // `from_convex_polyline` drops vertices between nearly parallel edges, which can
+            // leave a sliver with two; the README's polygons are strictly convex already.
+            let polygon = ConvexPolygon::from_convex_polyline(points.clone())
+                .or_else(|| ConvexPolygon::from_convex_polyline_unmodified(points))
                 .ok_or("parry rejected the convex polygon")?;
             if r > 0.0 {
-                Box::new(RoundShape { inner_shape: polygon, border_radius: r })
+                Box::new(RoundShape {
+                    inner_shape: polygon,
+                    border_radius: r,
+                })
             } else {
                 Box::new(polygon)
             }
@@ -204,54 +217,93 @@ fn call_box2d(input: &boxdd::ToiInput) -> boxdd::Result<boxdd::ToiOutput> {
 fn call_parry(
     c: &ParryCase,
 ) -> Result<Option<parry2d::query::ShapeCastHit>, parry2d::query::Unsupported> {
-    cast_shapes_nonlinear(&c.motion_a, &*c.shape_a, &c.motion_b, &*c.shape_b, 0.0, 1.0, true)
+    cast_shapes_nonlinear(
+        &c.motion_a,
+        &*c.shape_a,
+        &c.motion_b,
+        &*c.shape_b,
+        0.0,
+        1.0,
+        true,
+    )
 }
 
-/// A reported state with its fraction, any non-finite or out-of-range fraction read as a
-/// failure.
-fn answer(state: Reported, t: f32) -> (Reported, f64) {
+/// An implementation's result in the README's terms, with its raw form for the verbose list.
+struct Answer {
+    state: Reported,
+    t: f64,
+    raw: String,
+    /// The implementation flagged the answer as unreliable but still gave it (parry's
+    /// `ShapeCastStatus::Failed`, read as a hit).
+    flagged: bool,
+}
+
+/// A reported state with its fraction; a fraction that is not a number in `[0, 1]` makes it
+/// a failure.
+fn answer(state: Reported, t: f32, raw: String) -> Answer {
     if state != Reported::Failed && !(0.0..=1.0).contains(&t) {
-        return (Reported::Failed, 0.0);
+        return Answer {
+            state: Reported::Failed,
+            t: 0.0,
+            raw,
+            flagged: false,
+        };
     }
-    (state, f64::from(t))
+    Answer {
+        state,
+        t: f64::from(t),
+        raw,
+        flagged: false,
+    }
 }
 
-fn interpret_ours(out: &ToiOutput) -> (Reported, f64) {
-    answer(out.state.into(), out.fraction)
+fn interpret_ours(out: &ToiOutput) -> Answer {
+    let raw = format!("{:?} t={} it={}", out.state, out.fraction, out.iterations);
+    answer(out.state.into(), out.fraction, raw)
 }
 
-fn interpret_box2d(out: &boxdd::Result<boxdd::ToiOutput>) -> (Reported, f64) {
+fn interpret_box2d(out: &boxdd::Result<boxdd::ToiOutput>) -> Answer {
     use boxdd::ToiState as S;
     match out {
-        Ok(out) => match out.state {
-            S::Hit => answer(Reported::Hit, out.fraction),
-            S::Separated => answer(Reported::Separated, out.fraction),
-            S::Overlapped => answer(Reported::Overlapped, out.fraction),
-            S::Failed | S::Unknown => (Reported::Failed, 0.0),
-        },
-        Err(_) => (Reported::Failed, 0.0),
+        Ok(out) => {
+            let raw = format!("{:?} t={}", out.state, out.fraction);
+            match out.state {
+                S::Hit => answer(Reported::Hit, out.fraction, raw),
+                S::Separated => answer(Reported::Separated, out.fraction, raw),
+                S::Overlapped => answer(Reported::Overlapped, out.fraction, raw),
+                S::Failed | S::Unknown => answer(Reported::Failed, 0.0, raw),
+            }
+        }
+        Err(e) => answer(Reported::Failed, 0.0, format!("error: {e}")),
     }
 }
 
 fn interpret_parry(
     out: &Result<Option<parry2d::query::ShapeCastHit>, parry2d::query::Unsupported>,
-) -> (Reported, f64) {
+) -> Answer {
     match out {
-        Ok(None) => (Reported::Separated, 1.0),
+        Ok(None) => answer(Reported::Separated, 1.0, "None".into()),
         Ok(Some(hit)) => {
             let t = hit.time_of_impact;
+            let raw = format!("{:?} t={t}", hit.status);
             match hit.status {
                 ShapeCastStatus::Converged | ShapeCastStatus::OutOfIterations => {
-                    answer(Reported::Hit, t)
+                    answer(Reported::Hit, t, raw)
                 }
                 ShapeCastStatus::PenetratingOrWithinTargetDist if t == 0.0 => {
-                    answer(Reported::Overlapped, t)
+                    answer(Reported::Overlapped, t, raw)
                 }
-                ShapeCastStatus::PenetratingOrWithinTargetDist => answer(Reported::Hit, t),
-                ShapeCastStatus::Failed => (Reported::Failed, 0.0),
+                ShapeCastStatus::PenetratingOrWithinTargetDist => answer(Reported::Hit, t, raw),
+                // "Still a conservative approximation of the actual result, often fine to
+                // interpret as a success" (parry's docs), and Rapier uses it so: a hit, which
+                // the scorer then judges by the distance at `t`.
+                ShapeCastStatus::Failed => Answer {
+                    flagged: true,
+                    ..answer(Reported::Hit, t, raw)
+                },
             }
         }
-        Err(_) => (Reported::Failed, 0.0),
+        Err(e) => answer(Reported::Failed, 0.0, format!("error: {e:?}")),
     }
 }
 
@@ -272,8 +324,12 @@ struct Tally {
     /// Cases it could not be run on (input rejected while building, or a panic): scored
     /// failed and left out of the timing.
     not_run: usize,
-    /// `|d(t)|` at every hit and overlap (m).
+    /// `|d(t)|` at every hit (m), the README's accuracy measure.
     abs_d: Vec<f64>,
+    /// Answers the implementation flagged as unreliable (see [`Answer::flagged`]).
+    flagged: usize,
+    /// One line per answer that is not correct (printed with `TOI_BENCH_VERBOSE=1`).
+    wrong: Vec<String>,
     /// Cases timed.
     timed: usize,
     /// Median time per call (ns) and where it comes from.
@@ -281,22 +337,37 @@ struct Tally {
 }
 
 impl Tally {
-    fn add(&mut self, scored: Option<(Verdict, Option<f64>)>) {
+    fn add(&mut self, case: &Case, model: Model, answer: &Answer) {
+        self.flagged += usize::from(answer.flagged);
+        let scored = score_model(case, model, answer.state, answer.t);
         match scored {
             None => self.unsupported += 1,
             Some((verdict, d)) => {
                 *self.verdicts.entry(verdict).or_default() += 1;
-                if let Some(d) = d {
+                if let (Some(d), Reported::Hit) = (d, answer.state) {
                     self.abs_d.push(d.abs());
+                }
+                if verdict != Verdict::Correct {
+                    let r = case.reference(model).expect("scored, so referenced");
+                    self.wrong.push(format!(
+                        "{} {verdict:?}: {} d(t)={} | t_touch={:?} min_dist={:.3e} d0={:.3e}",
+                        case.id,
+                        answer.raw,
+                        d.map_or_else(|| "-".into(), |d| format!("{d:.3e}")),
+                        r.t_touch,
+                        r.min_dist,
+                        r.d0,
+                    ));
                 }
             }
         }
     }
 
     /// A case the implementation could not be run on: failed, and not timed.
-    fn add_not_run(&mut self) {
+    fn add_not_run(&mut self, case: &Case, why: &str) {
         self.not_run += 1;
-        self.add(Some((Verdict::Failed, None)));
+        *self.verdicts.entry(Verdict::Failed).or_default() += 1;
+        self.wrong.push(format!("{} not run: {why}", case.id));
     }
 
     fn count(&self, verdict: Verdict) -> usize {
@@ -366,40 +437,42 @@ impl<'a> Family<'a> {
 
     fn score_case(&mut self, i: usize) {
         let case = self.cases[i];
-        let score = |engine: Engine, (state, t): (Reported, f64)| {
-            score_model(case, engine.model(), state, t)
-        };
-
         let input = case.input();
         let out = call_ours(&input);
         self.ours_stats.iterations += u64::from(out.iterations);
         self.ours_stats.max_iterations = self.ours_stats.max_iterations.max(out.iterations);
         self.ours_stats.root_iterations += u64::from(out.root_iterations);
         self.ours_stats.certify_evaluations += u64::from(out.certify_evaluations);
-        let scored = score(Engine::Ours, interpret_ours(&out));
-        self.tally(Engine::Ours).add(scored);
+        self.tally(Engine::Ours)
+            .add(case, Engine::Ours.model(), &interpret_ours(&out));
         self.ours.push(input);
 
-        match box2d_input(case)
-            .ok()
-            .and_then(|input| Some((input, guarded(|| interpret_box2d(&call_box2d(&input)))?)))
-        {
-            Some((input, result)) => {
-                self.tally(Engine::Box2d).add(score(Engine::Box2d, result));
+        let box2d = box2d_input(case)
+            .map_err(|e| e.to_string())
+            .and_then(|input| {
+                let answer = guarded(|| interpret_box2d(&call_box2d(&input))).ok_or("panicked")?;
+                Ok((input, answer))
+            });
+        match box2d {
+            Ok((input, answer)) => {
+                self.tally(Engine::Box2d)
+                    .add(case, Engine::Box2d.model(), &answer);
                 self.box2d.push(input);
             }
-            None => self.tally(Engine::Box2d).add_not_run(),
+            Err(why) => self.tally(Engine::Box2d).add_not_run(case, &why),
         }
 
-        match parry_case(case)
-            .ok()
-            .and_then(|c| Some((guarded(|| interpret_parry(&call_parry(&c)))?, c)))
-        {
-            Some((result, c)) => {
-                self.tally(Engine::Parry).add(score(Engine::Parry, result));
+        let parry = parry_case(case).and_then(|c| {
+            let answer = guarded(|| interpret_parry(&call_parry(&c))).ok_or("panicked")?;
+            Ok((c, answer))
+        });
+        match parry {
+            Ok((c, answer)) => {
+                self.tally(Engine::Parry)
+                    .add(case, Engine::Parry.model(), &answer);
                 self.parry.push(c);
             }
-            None => self.tally(Engine::Parry).add_not_run(),
+            Err(why) => self.tally(Engine::Parry).add_not_run(case, &why),
         }
     }
 
@@ -452,7 +525,11 @@ impl RunMode {
         let testing = !has("--bench") || has("--test");
         let listing = has("--list");
         let profiling = args.iter().any(|a| a.starts_with("--profile-time"));
-        RunMode { measuring: !testing && !listing && !profiling, listing, testing }
+        RunMode {
+            measuring: !testing && !listing && !profiling,
+            listing,
+            testing,
+        }
     }
 }
 
@@ -478,13 +555,20 @@ fn criterion_dir() -> PathBuf {
 /// Criterion's median time per iteration (ns) of `group/function`, if it was written by this
 /// run (modified after `since`).
 fn criterion_median(group: &str, function: &str, since: SystemTime) -> Option<f64> {
-    let path = criterion_dir().join(group).join(function).join("new").join("estimates.json");
+    let path = criterion_dir()
+        .join(group)
+        .join(function)
+        .join("new")
+        .join("estimates.json");
     let fresh = std::fs::metadata(&path).ok()?.modified().ok()? >= since;
     if !fresh {
         return None;
     }
-    let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(path).ok()?).ok()?;
-    json["median"]["point_estimate"].as_f64().filter(|ns| ns.is_finite() && *ns > 0.0)
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(path).ok()?).ok()?;
+    json["median"]["point_estimate"]
+        .as_f64()
+        .filter(|ns| ns.is_finite() && *ns > 0.0)
 }
 
 /// The median time (ns) of `passes` runs of `f`, after one warm-up run.
@@ -536,7 +620,10 @@ fn bench_family(c: &mut Criterion, family: &mut Family<'_>, mode: &RunMode, sinc
             .map(|ns| (per_call(ns), Timing::Criterion));
         let ns = measured.unwrap_or_else(|| {
             let f: &Family<'_> = family;
-            (per_call(self_timed_median(passes, || f.pass(engine))), Timing::SelfTimed(passes))
+            (
+                per_call(self_timed_median(passes, || f.pass(engine))),
+                Timing::SelfTimed(passes),
+            )
         });
         family.tally(engine).ns_per_call = Some(ns);
     }
@@ -564,14 +651,19 @@ fn fmt_len(m: Option<f64>) -> String {
     m.map_or_else(|| "–".into(), |m| format!("{m:.1e}"))
 }
 
+/// A peer and its time per call (ns).
+type Peer = Option<(Engine, f64)>;
+
 /// The fastest peer that got the family right, and the fastest peer at all.
-fn fastest_peers(family: &Family<'_>) -> (Option<(Engine, f64)>, Option<(Engine, f64)>) {
+fn fastest_peers(family: &Family<'_>) -> (Peer, Peer) {
     let mut right = None;
     let mut any = None;
     for engine in [Engine::Box2d, Engine::Parry] {
         let tally = &family.tallies[&engine];
-        let Some((ns, _)) = tally.ns_per_call else { continue };
-        let better = |best: Option<(Engine, f64)>| best.is_none_or(|(_, b)| ns < b);
+        let Some((ns, _)) = tally.ns_per_call else {
+            continue;
+        };
+        let better = |best: Peer| best.is_none_or(|(_, b)| ns < b);
         if better(any) {
             any = Some((engine, ns));
         }
@@ -582,13 +674,16 @@ fn fastest_peers(family: &Family<'_>) -> (Option<(Engine, f64)>, Option<(Engine,
     (right, any)
 }
 
-fn ratio(family: &Family<'_>, peer: Option<(Engine, f64)>) -> Option<(f64, Engine)> {
+fn ratio(family: &Family<'_>, peer: Peer) -> Option<(f64, Engine)> {
     let (ours, _) = family.tallies[&Engine::Ours].ns_per_call?;
     peer.map(|(engine, ns)| (ours / ns, engine))
 }
 
 fn fmt_ratio(r: Option<(f64, Engine)>) -> String {
-    r.map_or_else(|| "– (none)".into(), |(r, e)| format!("{r:.2} ({})", e.name()))
+    r.map_or_else(
+        || "– (none)".into(),
+        |(r, e)| format!("{r:.2} ({})", e.name()),
+    )
 }
 
 fn family_table(out: &mut String, family: &Family<'_>) {
@@ -603,7 +698,11 @@ fn family_table(out: &mut String, family: &Family<'_>) {
     for engine in Engine::ALL {
         let t = &family.tallies[&engine];
         let counts: Vec<String> = VERDICTS.iter().map(|&v| t.count(v).to_string()).collect();
-        let max_d = t.abs_d.iter().copied().fold(None, |m: Option<f64>, d| Some(m.map_or(d, |m| m.max(d))));
+        let max_d = t
+            .abs_d
+            .iter()
+            .copied()
+            .fold(None, |m: Option<f64>, d| Some(m.map_or(d, |m| m.max(d))));
         let _ = writeln!(
             out,
             "| {} | {} | {} | {} | {} | {} | {} | {} |",
@@ -620,7 +719,25 @@ fn family_table(out: &mut String, family: &Family<'_>) {
     let notes: Vec<String> = Engine::ALL
         .iter()
         .filter(|&&e| family.tallies[&e].not_run > 0)
-        .map(|&e| format!("{} could not run {} case(s) (scored failed, not timed)", e.name(), family.tallies[&e].not_run))
+        .map(|&e| {
+            format!(
+                "{} could not run {} case(s) (scored failed, not timed)",
+                e.name(),
+                family.tallies[&e].not_run
+            )
+        })
+        .chain(
+            Engine::ALL
+                .iter()
+                .filter(|&&e| family.tallies[&e].flagged > 0)
+                .map(|&e| {
+                    format!(
+                        "{} flagged {} answer(s) as failed but gave a time (scored as hits)",
+                        e.name(),
+                        family.tallies[&e].flagged
+                    )
+                }),
+        )
         .collect();
     let s = &family.ours_stats;
     let per = |x: u64| x as f64 / n.max(1) as f64;
@@ -643,6 +760,13 @@ fn family_table(out: &mut String, family: &Family<'_>) {
     for note in notes {
         let _ = writeln!(out, "{note}.");
     }
+    if std::env::var_os("TOI_BENCH_VERBOSE").is_some() {
+        for engine in Engine::ALL {
+            for line in &family.tallies[&engine].wrong {
+                let _ = writeln!(out, "    {} {line}", engine.name());
+            }
+        }
+    }
     let _ = writeln!(out);
 }
 
@@ -664,7 +788,11 @@ fn summary_table(out: &mut String, families: &[Family<'_>]) {
         let verdict = match to_right {
             Some((r, _)) if r <= RATIO_TARGET => "met".to_string(),
             Some((r, _)) => {
-                format!("missed by {:.2} (needs {:.0}% less time)", r - RATIO_TARGET, (1.0 - RATIO_TARGET / r) * 100.0)
+                format!(
+                    "missed by {:.2} (needs {:.0}% less time)",
+                    r - RATIO_TARGET,
+                    (1.0 - RATIO_TARGET / r) * 100.0
+                )
             }
             None => "no right peer".to_string(),
         };
@@ -687,13 +815,20 @@ fn summary_table(out: &mut String, families: &[Family<'_>]) {
 
 fn report(families: &[Family<'_>], mode: &RunMode) -> String {
     let mut out = String::new();
-    let _ = writeln!(out, "## Time of impact: ours vs Box2D v3 (boxdd) vs parry2d\n");
+    let _ = writeln!(
+        out,
+        "## Time of impact: ours vs Box2D v3 (boxdd) vs parry2d\n"
+    );
     let _ = writeln!(
         out,
         "ns/call: criterion's median time for all the family's cases / cases timed{}. \
          Right: no miss, no failure, no unsupported case. Each result is scored against the \
          reference of the model it follows (ours, parry: angle; box2d: nlerp).\n",
-        if mode.measuring { "" } else { " (no criterion estimates in this mode: self-timed)" },
+        if mode.measuring {
+            ""
+        } else {
+            " (no criterion estimates in this mode: self-timed)"
+        },
     );
     summary_table(&mut out, families);
     for family in families {
@@ -728,11 +863,17 @@ fn main() {
     // Peers' panics are caught and scored as failures; keep their messages off the output.
     let hook = std::panic::take_hook();
     std::panic::set_hook(Box::new(|_| {}));
-    let mut families: Vec<Family<'_>> = FAMILIES.iter().map(|&f| Family::prepare(f, &cases)).collect();
+    let mut families: Vec<Family<'_>> = FAMILIES
+        .iter()
+        .map(|&f| Family::prepare(f, &cases))
+        .collect();
     std::panic::set_hook(hook);
     let listed: usize = families.iter().map(|f| f.cases.len()).sum();
     if listed != cases.len() {
-        eprintln!("warning: {} case(s) belong to no known family", cases.len() - listed);
+        eprintln!(
+            "warning: {} case(s) belong to no known family",
+            cases.len() - listed
+        );
     }
 
     let since = SystemTime::now();

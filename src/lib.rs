@@ -42,8 +42,8 @@ pub mod prelude {
     pub use crate::geometry::{Aabb, ShapeError};
     pub use crate::plugin::{
         BodyMass, CcdConfig, CcdEnabled, CcdError, CcdImpact, CcdPlugin, CcdStatus, CcdSystems,
-        Collider, Friction, Impact, Resolution, Restitution, StaticCollider, Sweep,
-        TimeOfImpact, Velocity,
+        Collider, Friction, Impact, Resolution, Restitution, StaticCollider, Sweep, TimeOfImpact,
+        Velocity,
     };
     pub use glam::Vec2;
 }

@@ -21,10 +21,17 @@ struct RunStats {
 
 fn run(resolution: Resolution, ccd: bool, steps: usize, check: bool) -> RunStats {
     let mut app = headless_app(DT);
-    app.insert_resource(CcdConfig { resolution, ..Default::default() });
+    app.insert_resource(CcdConfig {
+        resolution,
+        ..Default::default()
+    });
     app.insert_resource(Gravity(Vec2::new(0.0, -9.81)));
     app.add_systems(bevy_app::FixedUpdate, integrate_velocity);
-    let config = ArenaConfig { ccd, timestep: DT as f32, ..Default::default() };
+    let config = ArenaConfig {
+        ccd,
+        timestep: DT as f32,
+        ..Default::default()
+    };
     let arena = spawn_arena(app.world_mut(), &config);
     // Membership: a body is inside when its bounds are inside the box, with the slop allowed.
     let bounds = arena.interior.expanded(bevy_ccd::geometry::LINEAR_SLOP);
@@ -51,7 +58,10 @@ fn run(resolution: Resolution, ccd: bool, steps: usize, check: bool) -> RunStats
                     depth <= bevy_ccd::geometry::LINEAR_SLOP,
                     "step {step}: {pair:?} overlap {depth} m, deeper than the slop"
                 );
-                assert!(outside.is_empty(), "step {step}: bodies left the box: {outside:?}");
+                assert!(
+                    outside.is_empty(),
+                    "step {step}: bodies left the box: {outside:?}"
+                );
             }
             stats.worst_penetration = stats.worst_penetration.max(depth);
         }
@@ -62,15 +72,24 @@ fn run(resolution: Resolution, ccd: bool, steps: usize, check: bool) -> RunStats
 #[test]
 fn arena_substep_contains_every_body() {
     let s = run(Resolution::SubStep { max_substeps: 4 }, true, STEPS, true);
-    eprintln!("substep: impacts {}, worst penetration {:.2e}", s.impacts, s.worst_penetration);
+    eprintln!(
+        "substep: impacts {}, worst penetration {:.2e}",
+        s.impacts, s.worst_penetration
+    );
     assert_eq!(s.escaped_at_end, 0);
-    assert!(s.impacts > 1000, "the arena must actually make bodies hit walls");
+    assert!(
+        s.impacts > 1000,
+        "the arena must actually make bodies hit walls"
+    );
 }
 
 #[test]
 fn arena_clamp_contains_every_body() {
     let s = run(Resolution::Clamp, true, STEPS, true);
-    eprintln!("clamp: impacts {}, worst penetration {:.2e}", s.impacts, s.worst_penetration);
+    eprintln!(
+        "clamp: impacts {}, worst penetration {:.2e}",
+        s.impacts, s.worst_penetration
+    );
     assert_eq!(s.escaped_at_end, 0);
     assert!(s.impacts > 1000);
 }
@@ -78,7 +97,10 @@ fn arena_clamp_contains_every_body() {
 #[test]
 fn arena_without_ccd_loses_bodies() {
     let s = run(Resolution::default(), false, 60, true);
-    eprintln!("ccd off: {} bodies escaped, first at step {:?}", s.escaped_at_end, s.first_escape_step);
+    eprintln!(
+        "ccd off: {} bodies escaped, first at step {:?}",
+        s.escaped_at_end, s.first_escape_step
+    );
     // Most bodies move more than a wall thickness per step: without CCD they go through.
     assert!(s.escaped_at_end > 100, "only {} escaped", s.escaped_at_end);
 }

@@ -101,34 +101,146 @@ fn shape_constructors_reject_bad_input_with_the_right_error() {
         ("circle -inf", Circle::new(-inf).map(Shape::from), NonFinite),
         ("circle 0", Circle::new(0.0).map(Shape::from), TooSmall),
         ("circle -0", Circle::new(-0.0).map(Shape::from), TooSmall),
-        ("circle negative", Circle::new(-1.0).map(Shape::from), TooSmall),
-        ("circle below MIN_SHAPE_SIZE", Circle::new(tiny).map(Shape::from), TooSmall),
-        ("capsule NaN centre", Capsule::new(v(nan, 0.0), v(1.0, 0.0), 0.1).map(Shape::from), NonFinite),
-        ("capsule inf centre", Capsule::new(v(0.0, 0.0), v(0.0, inf), 0.1).map(Shape::from), NonFinite),
-        ("capsule NaN radius", Capsule::new(v(0.0, 0.0), v(1.0, 0.0), nan).map(Shape::from), NonFinite),
-        ("capsule equal centres", Capsule::new(v(1.0, 2.0), v(1.0, 2.0), 0.1).map(Shape::from), TooSmall),
-        ("capsule centres too close", Capsule::new(v(0.0, 0.0), v(tiny, 0.0), 0.1).map(Shape::from), TooSmall),
-        ("capsule zero radius", Capsule::new(v(0.0, 0.0), v(1.0, 0.0), 0.0).map(Shape::from), TooSmall),
-        ("capsule negative radius", Capsule::new(v(0.0, 0.0), v(1.0, 0.0), -0.1).map(Shape::from), TooSmall),
-        ("capsule::horizontal negative", Capsule::horizontal(-1.0, 0.1).map(Shape::from), TooSmall),
-        ("capsule::horizontal NaN", Capsule::horizontal(nan, 0.1).map(Shape::from), NonFinite),
-        ("capsule::horizontal zero radius", Capsule::horizontal(1.0, 0.0).map(Shape::from), TooSmall),
-        ("segment NaN", Segment::new(v(0.0, nan), v(1.0, 0.0)).map(Shape::from), NonFinite),
-        ("segment -inf", Segment::new(v(0.0, 0.0), v(-inf, 0.0)).map(Shape::from), NonFinite),
-        ("segment zero length", Segment::new(v(3.0, 3.0), v(3.0, 3.0)).map(Shape::from), TooSmall),
-        ("segment too short", Segment::new(v(0.0, 0.0), v(0.0, tiny)).map(Shape::from), TooSmall),
-        ("rectangle zero", Polygon::rectangle(0.0, 1.0).map(Shape::from), TooSmall),
-        ("rectangle negative", Polygon::rectangle(1.0, -1.0).map(Shape::from), TooSmall),
-        ("rectangle NaN", Polygon::rectangle(nan, 1.0).map(Shape::from), NonFinite),
-        ("rectangle inf", Polygon::rectangle(1.0, inf).map(Shape::from), NonFinite),
-        ("rounded rectangle NaN radius", Polygon::rounded_rectangle(1.0, 1.0, nan).map(Shape::from), NonFinite),
-        ("rounded rectangle negative radius", Polygon::rounded_rectangle(1.0, 1.0, -0.1).map(Shape::from), TooSmall),
-        ("regular 2", Polygon::regular(2, 1.0, 0.0).map(Shape::from), TooFewPoints),
-        ("regular 0", Polygon::regular(0, 1.0, 0.0).map(Shape::from), TooFewPoints),
-        ("regular too many", Polygon::regular(MAX_POLYGON_VERTICES + 1, 1.0, 0.0).map(Shape::from), TooManyPoints),
-        ("regular usize::MAX", Polygon::regular(usize::MAX, 1.0, 0.0).map(Shape::from), TooManyPoints),
-        ("regular negative size", Polygon::regular(5, -1.0, 0.0).map(Shape::from), TooSmall),
-        ("regular NaN size", Polygon::regular(5, nan, 0.0).map(Shape::from), NonFinite),
+        (
+            "circle negative",
+            Circle::new(-1.0).map(Shape::from),
+            TooSmall,
+        ),
+        (
+            "circle below MIN_SHAPE_SIZE",
+            Circle::new(tiny).map(Shape::from),
+            TooSmall,
+        ),
+        (
+            "capsule NaN centre",
+            Capsule::new(v(nan, 0.0), v(1.0, 0.0), 0.1).map(Shape::from),
+            NonFinite,
+        ),
+        (
+            "capsule inf centre",
+            Capsule::new(v(0.0, 0.0), v(0.0, inf), 0.1).map(Shape::from),
+            NonFinite,
+        ),
+        (
+            "capsule NaN radius",
+            Capsule::new(v(0.0, 0.0), v(1.0, 0.0), nan).map(Shape::from),
+            NonFinite,
+        ),
+        (
+            "capsule equal centres",
+            Capsule::new(v(1.0, 2.0), v(1.0, 2.0), 0.1).map(Shape::from),
+            TooSmall,
+        ),
+        (
+            "capsule centres too close",
+            Capsule::new(v(0.0, 0.0), v(tiny, 0.0), 0.1).map(Shape::from),
+            TooSmall,
+        ),
+        (
+            "capsule zero radius",
+            Capsule::new(v(0.0, 0.0), v(1.0, 0.0), 0.0).map(Shape::from),
+            TooSmall,
+        ),
+        (
+            "capsule negative radius",
+            Capsule::new(v(0.0, 0.0), v(1.0, 0.0), -0.1).map(Shape::from),
+            TooSmall,
+        ),
+        (
+            "capsule::horizontal negative",
+            Capsule::horizontal(-1.0, 0.1).map(Shape::from),
+            TooSmall,
+        ),
+        (
+            "capsule::horizontal NaN",
+            Capsule::horizontal(nan, 0.1).map(Shape::from),
+            NonFinite,
+        ),
+        (
+            "capsule::horizontal zero radius",
+            Capsule::horizontal(1.0, 0.0).map(Shape::from),
+            TooSmall,
+        ),
+        (
+            "segment NaN",
+            Segment::new(v(0.0, nan), v(1.0, 0.0)).map(Shape::from),
+            NonFinite,
+        ),
+        (
+            "segment -inf",
+            Segment::new(v(0.0, 0.0), v(-inf, 0.0)).map(Shape::from),
+            NonFinite,
+        ),
+        (
+            "segment zero length",
+            Segment::new(v(3.0, 3.0), v(3.0, 3.0)).map(Shape::from),
+            TooSmall,
+        ),
+        (
+            "segment too short",
+            Segment::new(v(0.0, 0.0), v(0.0, tiny)).map(Shape::from),
+            TooSmall,
+        ),
+        (
+            "rectangle zero",
+            Polygon::rectangle(0.0, 1.0).map(Shape::from),
+            TooSmall,
+        ),
+        (
+            "rectangle negative",
+            Polygon::rectangle(1.0, -1.0).map(Shape::from),
+            TooSmall,
+        ),
+        (
+            "rectangle NaN",
+            Polygon::rectangle(nan, 1.0).map(Shape::from),
+            NonFinite,
+        ),
+        (
+            "rectangle inf",
+            Polygon::rectangle(1.0, inf).map(Shape::from),
+            NonFinite,
+        ),
+        (
+            "rounded rectangle NaN radius",
+            Polygon::rounded_rectangle(1.0, 1.0, nan).map(Shape::from),
+            NonFinite,
+        ),
+        (
+            "rounded rectangle negative radius",
+            Polygon::rounded_rectangle(1.0, 1.0, -0.1).map(Shape::from),
+            TooSmall,
+        ),
+        (
+            "regular 2",
+            Polygon::regular(2, 1.0, 0.0).map(Shape::from),
+            TooFewPoints,
+        ),
+        (
+            "regular 0",
+            Polygon::regular(0, 1.0, 0.0).map(Shape::from),
+            TooFewPoints,
+        ),
+        (
+            "regular too many",
+            Polygon::regular(MAX_POLYGON_VERTICES + 1, 1.0, 0.0).map(Shape::from),
+            TooManyPoints,
+        ),
+        (
+            "regular usize::MAX",
+            Polygon::regular(usize::MAX, 1.0, 0.0).map(Shape::from),
+            TooManyPoints,
+        ),
+        (
+            "regular negative size",
+            Polygon::regular(5, -1.0, 0.0).map(Shape::from),
+            TooSmall,
+        ),
+        (
+            "regular NaN size",
+            Polygon::regular(5, nan, 0.0).map(Shape::from),
+            NonFinite,
+        ),
     ];
     for (what, got, expected) in cases {
         assert_eq!(got.err(), Some(expected), "{what}");
@@ -148,27 +260,67 @@ fn polygon_from_points_rejects_bad_clouds() {
         .collect();
     let cases: Vec<(&str, Result<Polygon, ShapeError>, ShapeError)> = vec![
         ("empty", Polygon::from_points(&[], 0.0), TooFewPoints),
-        ("one point", Polygon::from_points(&[v(1.0, 1.0)], 0.0), TooFewPoints),
-        ("two points", Polygon::from_points(&[v(0.0, 0.0), v(1.0, 0.0)], 0.0), TooFewPoints),
-        ("NaN point", Polygon::from_points(&[v(0.0, 0.0), v(1.0, nan), v(0.0, 1.0)], 0.0), NonFinite),
-        ("inf point", Polygon::from_points(&[v(0.0, 0.0), v(f32::INFINITY, 0.0), v(0.0, 1.0)], 0.0), NonFinite),
+        (
+            "one point",
+            Polygon::from_points(&[v(1.0, 1.0)], 0.0),
+            TooFewPoints,
+        ),
+        (
+            "two points",
+            Polygon::from_points(&[v(0.0, 0.0), v(1.0, 0.0)], 0.0),
+            TooFewPoints,
+        ),
+        (
+            "NaN point",
+            Polygon::from_points(&[v(0.0, 0.0), v(1.0, nan), v(0.0, 1.0)], 0.0),
+            NonFinite,
+        ),
+        (
+            "inf point",
+            Polygon::from_points(&[v(0.0, 0.0), v(f32::INFINITY, 0.0), v(0.0, 1.0)], 0.0),
+            NonFinite,
+        ),
         ("NaN radius", Polygon::from_points(&square, nan), NonFinite),
-        ("inf radius", Polygon::from_points(&square, f32::INFINITY), NonFinite),
-        ("negative radius", Polygon::from_points(&square, -0.1), TooSmall),
-        ("three identical", Polygon::from_points(&[v(2.0, 2.0); 3], 0.0), TooFewPoints),
-        ("duplicates leave two", Polygon::from_points(&[v(0.0, 0.0), v(0.0, 0.0), v(1.0, 0.0)], 0.0), TooFewPoints),
+        (
+            "inf radius",
+            Polygon::from_points(&square, f32::INFINITY),
+            NonFinite,
+        ),
+        (
+            "negative radius",
+            Polygon::from_points(&square, -0.1),
+            TooSmall,
+        ),
+        (
+            "three identical",
+            Polygon::from_points(&[v(2.0, 2.0); 3], 0.0),
+            TooFewPoints,
+        ),
+        (
+            "duplicates leave two",
+            Polygon::from_points(&[v(0.0, 0.0), v(0.0, 0.0), v(1.0, 0.0)], 0.0),
+            TooFewPoints,
+        ),
         (
             "near-duplicates (1e-7 apart) leave two",
             Polygon::from_points(&[v(0.0, 0.0), v(1e-7, 0.0), v(1.0, 0.0), v(1.0, 1e-7)], 0.0),
             TooFewPoints,
         ),
-        ("collinear", Polygon::from_points(&[v(0.0, 0.0), v(1.0, 1.0), v(2.0, 2.0), v(3.0, 3.0)], 0.0), Collinear),
+        (
+            "collinear",
+            Polygon::from_points(&[v(0.0, 0.0), v(1.0, 1.0), v(2.0, 2.0), v(3.0, 3.0)], 0.0),
+            Collinear,
+        ),
         (
             "nearly collinear (1e-6 off a 1 m line)",
             Polygon::from_points(&[v(0.0, 0.0), v(1.0, 0.0), v(0.5, 1e-6)], 0.0),
             Collinear,
         ),
-        ("nine hull vertices", Polygon::from_points(&octagon_plus, 0.0), TooManyPoints),
+        (
+            "nine hull vertices",
+            Polygon::from_points(&octagon_plus, 0.0),
+            TooManyPoints,
+        ),
     ];
     for (what, got, expected) in cases {
         assert_eq!(got.err(), Some(expected), "{what}");
@@ -197,22 +349,65 @@ fn polygon_from_ccw_rejects_bad_loops() {
         .collect();
     let cases: Vec<(&str, Result<Polygon, ShapeError>, &[ShapeError])> = vec![
         ("clockwise", Polygon::from_ccw(&cw, 0.0), &[NotConvex]),
-        ("reflex vertex (dart)", Polygon::from_ccw(&[v(0.0, 0.0), v(2.0, 0.0), v(1.0, 0.5), v(1.0, 2.0)], 0.0), &[NotConvex]),
+        (
+            "reflex vertex (dart)",
+            Polygon::from_ccw(&[v(0.0, 0.0), v(2.0, 0.0), v(1.0, 0.5), v(1.0, 2.0)], 0.0),
+            &[NotConvex],
+        ),
         ("pentagram", Polygon::from_ccw(&star, 0.0), &[NotConvex]),
-        ("collinear middle vertex", Polygon::from_ccw(&[v(0.0, 0.0), v(1.0, 0.0), v(2.0, 0.0), v(1.0, 1.0)], 0.0), &[NotConvex]),
+        (
+            "collinear middle vertex",
+            Polygon::from_ccw(&[v(0.0, 0.0), v(1.0, 0.0), v(2.0, 0.0), v(1.0, 1.0)], 0.0),
+            &[NotConvex],
+        ),
         // All collinear: both "no area" and "not a strictly convex loop" name the defect.
-        ("all collinear", Polygon::from_ccw(&[v(0.0, 0.0), v(1.0, 0.0), v(2.0, 0.0)], 0.0), &[NotConvex, Collinear]),
-        ("repeated vertex", Polygon::from_ccw(&[v(0.0, 0.0), v(0.0, 0.0), v(1.0, 0.0), v(0.0, 1.0)], 0.0), &[TooFewPoints]),
-        ("closing vertex repeated", Polygon::from_ccw(&[v(0.0, 0.0), v(1.0, 0.0), v(0.0, 1.0), v(0.0, 0.0)], 0.0), &[TooFewPoints]),
-        ("two points", Polygon::from_ccw(&[v(0.0, 0.0), v(1.0, 0.0)], 0.0), &[TooFewPoints]),
-        ("nine vertices", Polygon::from_ccw(&nine, 0.0), &[TooManyPoints]),
-        ("NaN vertex", Polygon::from_ccw(&[v(0.0, 0.0), v(f32::NAN, 0.0), v(0.0, 1.0)], 0.0), &[NonFinite]),
-        ("NaN radius", Polygon::from_ccw(&ccw, f32::NAN), &[NonFinite]),
-        ("negative radius", Polygon::from_ccw(&ccw, -1.0), &[TooSmall]),
+        (
+            "all collinear",
+            Polygon::from_ccw(&[v(0.0, 0.0), v(1.0, 0.0), v(2.0, 0.0)], 0.0),
+            &[NotConvex, Collinear],
+        ),
+        (
+            "repeated vertex",
+            Polygon::from_ccw(&[v(0.0, 0.0), v(0.0, 0.0), v(1.0, 0.0), v(0.0, 1.0)], 0.0),
+            &[TooFewPoints],
+        ),
+        (
+            "closing vertex repeated",
+            Polygon::from_ccw(&[v(0.0, 0.0), v(1.0, 0.0), v(0.0, 1.0), v(0.0, 0.0)], 0.0),
+            &[TooFewPoints],
+        ),
+        (
+            "two points",
+            Polygon::from_ccw(&[v(0.0, 0.0), v(1.0, 0.0)], 0.0),
+            &[TooFewPoints],
+        ),
+        (
+            "nine vertices",
+            Polygon::from_ccw(&nine, 0.0),
+            &[TooManyPoints],
+        ),
+        (
+            "NaN vertex",
+            Polygon::from_ccw(&[v(0.0, 0.0), v(f32::NAN, 0.0), v(0.0, 1.0)], 0.0),
+            &[NonFinite],
+        ),
+        (
+            "NaN radius",
+            Polygon::from_ccw(&ccw, f32::NAN),
+            &[NonFinite],
+        ),
+        (
+            "negative radius",
+            Polygon::from_ccw(&ccw, -1.0),
+            &[TooSmall],
+        ),
     ];
     for (what, got, expected) in cases {
         let err = got.err();
-        assert!(err.is_some_and(|e| expected.contains(&e)), "{what}: got {err:?}, expected one of {expected:?}");
+        assert!(
+            err.is_some_and(|e| expected.contains(&e)),
+            "{what}: got {err:?}, expected one of {expected:?}"
+        );
     }
     // The good loop itself is accepted, vertices unchanged and in order.
     assert_eq!(Polygon::from_ccw(&ccw, 0.0).unwrap().vertices(), &ccw);
@@ -232,13 +427,20 @@ fn area2(vs: &[Vec2]) -> f64 {
 /// Asserts `vs` is a strictly convex counter-clockwise loop (f64 orientation tests).
 fn assert_ccw_convex(vs: &[Vec2], what: &str) {
     let n = vs.len();
-    assert!((3..=MAX_POLYGON_VERTICES).contains(&n), "{what}: {n} vertices");
+    assert!(
+        (3..=MAX_POLYGON_VERTICES).contains(&n),
+        "{what}: {n} vertices"
+    );
     assert!(area2(vs) > 0.0, "{what}: not counter-clockwise");
     for i in 0..n {
         let (a, b, c) = (vs[i], vs[(i + 1) % n], vs[(i + 2) % n]);
         let cr = (b.x as f64 - a.x as f64) * (c.y as f64 - b.y as f64)
             - (b.y as f64 - a.y as f64) * (c.x as f64 - b.x as f64);
-        assert!(cr > 0.0, "{what}: no strict left turn at vertex {}", (i + 1) % n);
+        assert!(
+            cr > 0.0,
+            "{what}: no strict left turn at vertex {}",
+            (i + 1) % n
+        );
     }
 }
 
@@ -269,13 +471,19 @@ fn polygon_from_points_returns_the_hull() {
     for c in corners {
         // Welded near-duplicates may keep either copy: match within the weld tolerance (1e-5
         // relative to the 4 m extent).
-        assert!(vs.iter().any(|p| p.distance(c) <= 4e-5), "corner {c} missing from {vs:?}");
+        assert!(
+            vs.iter().any(|p| p.distance(c) <= 4e-5),
+            "corner {c} missing from {vs:?}"
+        );
     }
     // Normals: unit, outward (positive dot with the edge's offset from the centroid).
     for (i, n) in poly.normals().iter().enumerate() {
         assert!((n.length() - 1.0).abs() < 1e-6);
         let e = vs[(i + 1) % 4] - vs[i];
-        assert!(n.dot(e).abs() < 1e-6 && n.dot(vs[i] - v(1.0, -0.5)) > 0.0, "normal {i}: {n}");
+        assert!(
+            n.dot(e).abs() < 1e-6 && n.dot(vs[i] - v(1.0, -0.5)) > 0.0,
+            "normal {i}: {n}"
+        );
     }
 
     // Random clouds against a brute-force hull: a point is a hull vertex iff it lies in no
@@ -287,10 +495,15 @@ fn polygon_from_points_returns_the_hull() {
     let mut too_many = 0;
     while checked < 500 {
         let n = 3 + rng.below(10);
-        let pts: Vec<Vec2> = (0..n).map(|_| v(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0))).collect();
+        let pts: Vec<Vec2> = (0..n)
+            .map(|_| v(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0)))
+            .collect();
         let p64: Vec<[f64; 2]> = pts.iter().map(|p| [p.x as f64, p.y as f64]).collect();
-        let cr = |o: [f64; 2], a: [f64; 2], b: [f64; 2]| (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0]);
-        let dist = |a: [f64; 2], b: [f64; 2]| ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)).sqrt();
+        let cr = |o: [f64; 2], a: [f64; 2], b: [f64; 2]| {
+            (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
+        };
+        let dist =
+            |a: [f64; 2], b: [f64; 2]| ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)).sqrt();
         let mut degenerate = false;
         for i in 0..n {
             for j in 0..n {
@@ -301,7 +514,10 @@ fn polygon_from_points_returns_the_hull() {
                     degenerate = true;
                 }
                 for k in 0..n {
-                    if k != i && k != j && cr(p64[i], p64[j], p64[k]).abs() < 1e-3 * dist(p64[i], p64[j]) {
+                    if k != i
+                        && k != j
+                        && cr(p64[i], p64[j], p64[k]).abs() < 1e-3 * dist(p64[i], p64[j])
+                    {
                         degenerate = true;
                     }
                 }
@@ -340,14 +556,20 @@ fn polygon_from_points_returns_the_hull() {
                 }
             }
             Err(e) => {
-                assert!(hull.len() > MAX_POLYGON_VERTICES, "cloud {pts:?}: {e:?}, hull {hull:?}");
+                assert!(
+                    hull.len() > MAX_POLYGON_VERTICES,
+                    "cloud {pts:?}: {e:?}, hull {hull:?}"
+                );
                 assert_eq!(e, ShapeError::TooManyPoints);
                 too_many += 1;
             }
         }
         checked += 1;
     }
-    assert!(too_many < 500, "the random clouds must exercise the Ok path");
+    assert!(
+        too_many < 500,
+        "the random clouds must exercise the Ok path"
+    );
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -360,18 +582,46 @@ fn shape_proxy_new_rejects_bad_input() {
     let nine = [Vec2::ZERO; MAX_POLYGON_VERTICES + 1];
     let cases: Vec<(&str, Result<ShapeProxy, ShapeError>, ShapeError)> = vec![
         ("no points", ShapeProxy::new(&[], 0.0), TooFewPoints),
-        ("too many points", ShapeProxy::new(&nine, 0.0), TooManyPoints),
-        ("NaN point", ShapeProxy::new(&[v(f32::NAN, 0.0)], 0.0), NonFinite),
-        ("inf point", ShapeProxy::new(&[v(0.0, 0.0), v(0.0, f32::NEG_INFINITY)], 0.0), NonFinite),
-        ("NaN radius", ShapeProxy::new(&[v(0.0, 0.0)], f32::NAN), NonFinite),
-        ("inf radius", ShapeProxy::new(&[v(0.0, 0.0)], f32::INFINITY), NonFinite),
-        ("negative radius", ShapeProxy::new(&[v(0.0, 0.0)], -0.5), TooSmall),
+        (
+            "too many points",
+            ShapeProxy::new(&nine, 0.0),
+            TooManyPoints,
+        ),
+        (
+            "NaN point",
+            ShapeProxy::new(&[v(f32::NAN, 0.0)], 0.0),
+            NonFinite,
+        ),
+        (
+            "inf point",
+            ShapeProxy::new(&[v(0.0, 0.0), v(0.0, f32::NEG_INFINITY)], 0.0),
+            NonFinite,
+        ),
+        (
+            "NaN radius",
+            ShapeProxy::new(&[v(0.0, 0.0)], f32::NAN),
+            NonFinite,
+        ),
+        (
+            "inf radius",
+            ShapeProxy::new(&[v(0.0, 0.0)], f32::INFINITY),
+            NonFinite,
+        ),
+        (
+            "negative radius",
+            ShapeProxy::new(&[v(0.0, 0.0)], -0.5),
+            TooSmall,
+        ),
     ];
     for (what, got, expected) in cases {
         assert_eq!(got.err(), Some(expected), "{what}");
     }
     // Degenerate but valid: one point, repeated points, collinear points, radius 0.
-    for pts in [&[v(1.0, 2.0)][..], &[v(1.0, 2.0); 3][..], &[v(0.0, 0.0), v(1.0, 0.0), v(2.0, 0.0)][..]] {
+    for pts in [
+        &[v(1.0, 2.0)][..],
+        &[v(1.0, 2.0); 3][..],
+        &[v(0.0, 0.0), v(1.0, 0.0), v(2.0, 0.0)][..],
+    ] {
         let p = ShapeProxy::new(pts, 0.0).unwrap();
         assert_eq!(p.points(), pts);
         assert_eq!(p.radius, 0.0);
@@ -398,7 +648,10 @@ fn good_input() -> ToiInput {
 
 fn assert_failed(out: &ToiOutput, failure: ToiFailure, what: &str) {
     assert_eq!(out.state, ToiState::Failed(failure), "{what}: {out:?}");
-    assert_eq!(out.fraction, 0.0, "{what}: a rejected input reports fraction 0");
+    assert_eq!(
+        out.fraction, 0.0,
+        "{what}: a rejected input reports fraction 0"
+    );
 }
 
 /// The eight scalar fields of a sweep, by index.
@@ -417,15 +670,27 @@ fn set_field(s: &mut Sweep, field: usize, value: f32) {
 
 #[test]
 fn toi_rejects_non_finite_sweeps() {
-    assert_eq!(time_of_impact(&good_input()).state, ToiState::Hit, "the base input is good");
+    assert_eq!(
+        time_of_impact(&good_input()).state,
+        ToiState::Hit,
+        "the base input is good"
+    );
     for value in [f32::NAN, -f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
         for field in 0..8 {
             for which in 0..2 {
                 let mut input = good_input();
-                let sweep = if which == 0 { &mut input.sweep_a } else { &mut input.sweep_b };
+                let sweep = if which == 0 {
+                    &mut input.sweep_a
+                } else {
+                    &mut input.sweep_b
+                };
                 set_field(sweep, field, value);
                 let out = time_of_impact(&input);
-                assert_failed(&out, ToiFailure::NonFinite, &format!("sweep {which} field {field} = {value}"));
+                assert_failed(
+                    &out,
+                    ToiFailure::NonFinite,
+                    &format!("sweep {which} field {field} = {value}"),
+                );
             }
         }
     }
@@ -433,24 +698,93 @@ fn toi_rejects_non_finite_sweeps() {
 
 #[test]
 fn toi_rejects_bad_settings() {
-    let cases: [(&str, fn(&mut ToiInput), ToiFailure); 17] = [
-        ("max_fraction NaN", |i| i.max_fraction = f32::NAN, ToiFailure::NonFinite),
-        ("max_fraction inf", |i| i.max_fraction = f32::INFINITY, ToiFailure::NonFinite),
-        ("max_fraction -inf", |i| i.max_fraction = f32::NEG_INFINITY, ToiFailure::NonFinite),
-        ("max_fraction negative", |i| i.max_fraction = -0.1, ToiFailure::InvalidInput),
-        ("max_fraction tiny negative", |i| i.max_fraction = -f32::from_bits(1), ToiFailure::InvalidInput),
-        ("max_fraction above 1", |i| i.max_fraction = 1.0 + f32::EPSILON, ToiFailure::InvalidInput),
-        ("max_fraction 2", |i| i.max_fraction = 2.0, ToiFailure::InvalidInput),
-        ("slop zero", |i| i.config.linear_slop = 0.0, ToiFailure::InvalidInput),
-        ("slop -0", |i| i.config.linear_slop = -0.0, ToiFailure::InvalidInput),
-        ("slop negative", |i| i.config.linear_slop = -0.005, ToiFailure::InvalidInput),
-        ("slop NaN", |i| i.config.linear_slop = f32::NAN, ToiFailure::NonFinite),
-        ("slop inf", |i| i.config.linear_slop = f32::INFINITY, ToiFailure::NonFinite),
-        ("target separation NaN", |i| i.config.target_separation = Some(f32::NAN), ToiFailure::NonFinite),
-        ("target separation -inf", |i| i.config.target_separation = Some(f32::NEG_INFINITY), ToiFailure::NonFinite),
-        ("radius NaN", |i| i.proxy_a.radius = f32::NAN, ToiFailure::NonFinite),
-        ("radius inf", |i| i.proxy_b.radius = f32::INFINITY, ToiFailure::NonFinite),
-        ("radius negative", |i| i.proxy_b.radius = -0.1, ToiFailure::InvalidInput),
+    type Case = (&'static str, fn(&mut ToiInput), ToiFailure);
+    let cases: [Case; 17] = [
+        (
+            "max_fraction NaN",
+            |i| i.max_fraction = f32::NAN,
+            ToiFailure::NonFinite,
+        ),
+        (
+            "max_fraction inf",
+            |i| i.max_fraction = f32::INFINITY,
+            ToiFailure::NonFinite,
+        ),
+        (
+            "max_fraction -inf",
+            |i| i.max_fraction = f32::NEG_INFINITY,
+            ToiFailure::NonFinite,
+        ),
+        (
+            "max_fraction negative",
+            |i| i.max_fraction = -0.1,
+            ToiFailure::InvalidInput,
+        ),
+        (
+            "max_fraction tiny negative",
+            |i| i.max_fraction = -f32::from_bits(1),
+            ToiFailure::InvalidInput,
+        ),
+        (
+            "max_fraction above 1",
+            |i| i.max_fraction = 1.0 + f32::EPSILON,
+            ToiFailure::InvalidInput,
+        ),
+        (
+            "max_fraction 2",
+            |i| i.max_fraction = 2.0,
+            ToiFailure::InvalidInput,
+        ),
+        (
+            "slop zero",
+            |i| i.config.linear_slop = 0.0,
+            ToiFailure::InvalidInput,
+        ),
+        (
+            "slop -0",
+            |i| i.config.linear_slop = -0.0,
+            ToiFailure::InvalidInput,
+        ),
+        (
+            "slop negative",
+            |i| i.config.linear_slop = -0.005,
+            ToiFailure::InvalidInput,
+        ),
+        (
+            "slop NaN",
+            |i| i.config.linear_slop = f32::NAN,
+            ToiFailure::NonFinite,
+        ),
+        (
+            "slop inf",
+            |i| i.config.linear_slop = f32::INFINITY,
+            ToiFailure::NonFinite,
+        ),
+        (
+            "target separation NaN",
+            |i| i.config.target_separation = Some(f32::NAN),
+            ToiFailure::NonFinite,
+        ),
+        (
+            "target separation -inf",
+            |i| i.config.target_separation = Some(f32::NEG_INFINITY),
+            ToiFailure::NonFinite,
+        ),
+        (
+            "radius NaN",
+            |i| i.proxy_a.radius = f32::NAN,
+            ToiFailure::NonFinite,
+        ),
+        (
+            "radius inf",
+            |i| i.proxy_b.radius = f32::INFINITY,
+            ToiFailure::NonFinite,
+        ),
+        (
+            "radius negative",
+            |i| i.proxy_b.radius = -0.1,
+            ToiFailure::InvalidInput,
+        ),
     ];
     for (what, edit, failure) in cases {
         let mut input = good_input();
@@ -461,10 +795,16 @@ fn toi_rejects_bad_settings() {
     for t in [0.0f32, 1.0] {
         let mut input = good_input();
         input.max_fraction = t;
-        assert!(!matches!(time_of_impact(&input).state, ToiState::Failed(_)), "max_fraction {t}");
+        assert!(
+            !matches!(time_of_impact(&input).state, ToiState::Failed(_)),
+            "max_fraction {t}"
+        );
     }
     let mut input = good_input();
-    input.config = ToiConfig { linear_slop: f32::MIN_POSITIVE, ..ToiConfig::default() };
+    input.config = ToiConfig {
+        linear_slop: f32::MIN_POSITIVE,
+        ..ToiConfig::default()
+    };
     let out = time_of_impact(&input);
     // A slop of 1e-38 m asks for more precision than f32 has: any answer but a panic is
     // acceptable, and the fraction stays in range.
@@ -474,11 +814,23 @@ fn toi_rejects_bad_settings() {
 #[test]
 fn toi_rejects_coordinates_beyond_the_world_limit() {
     let above = f32::from_bits(MAX_WORLD_COORDINATE.to_bits() + 1);
-    for value in [1e30f32, -1e30, f32::MAX, f32::MIN, above, -above, 2.0 * MAX_WORLD_COORDINATE] {
+    for value in [
+        1e30f32,
+        -1e30,
+        f32::MAX,
+        f32::MIN,
+        above,
+        -above,
+        2.0 * MAX_WORLD_COORDINATE,
+    ] {
         for field in 0..8 {
             for which in 0..2 {
                 let mut input = good_input();
-                let sweep = if which == 0 { &mut input.sweep_a } else { &mut input.sweep_b };
+                let sweep = if which == 0 {
+                    &mut input.sweep_a
+                } else {
+                    &mut input.sweep_b
+                };
                 set_field(sweep, field, value);
                 let out = time_of_impact(&input);
                 assert_failed(
@@ -491,10 +843,18 @@ fn toi_rejects_coordinates_beyond_the_world_limit() {
         // Proxy points and radius beyond the limit.
         let mut input = good_input();
         input.proxy_a = ShapeProxy::new(&[v(0.0, 0.0), v(value, 0.0)], 0.1).unwrap();
-        assert_failed(&time_of_impact(&input), ToiFailure::CoordinatesTooLarge, &format!("point {value}"));
+        assert_failed(
+            &time_of_impact(&input),
+            ToiFailure::CoordinatesTooLarge,
+            &format!("point {value}"),
+        );
         let mut input = good_input();
         input.proxy_b.radius = value.abs();
-        assert_failed(&time_of_impact(&input), ToiFailure::CoordinatesTooLarge, &format!("radius {value}"));
+        assert_failed(
+            &time_of_impact(&input),
+            ToiFailure::CoordinatesTooLarge,
+            &format!("radius {value}"),
+        );
     }
 }
 
@@ -504,14 +864,23 @@ fn toi_rejects_coordinates_beyond_the_world_limit() {
 fn toi_at_the_world_limit_is_accepted_and_correct() {
     let x0 = MAX_WORLD_COORDINATE - 8.0; // exactly representable (ulp at 1e6 is 1/16)
     let ball = unit_circle();
-    let sa = Sweep::new(Vec2::ZERO, v(x0, 0.0), 0.0, v(MAX_WORLD_COORDINATE, 0.0), 0.0);
+    let sa = Sweep::new(
+        Vec2::ZERO,
+        v(x0, 0.0),
+        0.0,
+        v(MAX_WORLD_COORDINATE, 0.0),
+        0.0,
+    );
     let sb = Sweep::stationary(Vec2::ZERO, v(x0 + 4.0, 0.0), 0.0);
     let out = time_of_impact(&ToiInput::new(ball, sa, ball, sb));
     assert_eq!(out.state, ToiState::Hit, "{out:?}");
     // Gap 4 - 8t - 1: the surfaces are slop apart at t = (3 - slop) / 8; the relative speed is
     // 8, so the band is (slop/4) / 8 wide in time.
     let t_star = (3.0 - SLOP) / 8.0;
-    assert!((out.fraction as f64 - t_star).abs() <= (TOL + EPS) / 8.0, "{out:?} vs {t_star}");
+    assert!(
+        (out.fraction as f64 - t_star).abs() <= (TOL + EPS) / 8.0,
+        "{out:?} vs {t_star}"
+    );
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -530,7 +899,14 @@ fn first_root(p0: [f64; 2], vel: [f64; 2], r: f64) -> Option<f64> {
 /// Checks a hit of two round bodies (point cores) moving linearly against the quadratic
 /// formula: the fraction lies between the times the surfaces are slop ± slop/4 apart, widened
 /// by `eps` of distance over the relative speed.
-fn assert_round_hit(out: &ToiOutput, p0: [f64; 2], vel: [f64; 2], radii: f64, eps: f64, what: &str) {
+fn assert_round_hit(
+    out: &ToiOutput,
+    p0: [f64; 2],
+    vel: [f64; 2],
+    radii: f64,
+    eps: f64,
+    what: &str,
+) {
     assert_eq!(out.state, ToiState::Hit, "{what}: {out:?}");
     let speed = (vel[0] * vel[0] + vel[1] * vel[1]).sqrt();
     let early = first_root(p0, vel, radii + SLOP + TOL).expect("setup: they meet");
@@ -540,7 +916,11 @@ fn assert_round_hit(out: &ToiOutput, p0: [f64; 2], vel: [f64; 2], radii: f64, ep
         t >= early - eps / speed && t <= late + eps / speed,
         "{what}: fraction {t} outside [{early}, {late}]"
     );
-    assert!((out.separation as f64 - SLOP).abs() <= TOL + eps, "{what}: separation {}", out.separation);
+    assert!(
+        (out.separation as f64 - SLOP).abs() <= TOL + eps,
+        "{what}: separation {}",
+        out.separation
+    );
 }
 
 #[test]
@@ -554,7 +934,14 @@ fn coincident_points_act_as_a_circle() {
     let sb = Sweep::stationary(Vec2::ZERO, v(0.0, 0.5), 0.0);
     let out = time_of_impact(&ToiInput::new(blob, sa, ball, sb));
     let p0 = [0.0 - (-3.0 + 0.3f32 as f64), 0.5 - 0.2f32 as f64];
-    assert_round_hit(&out, p0, [-5.0, 0.0], 0.75, EPS, "coincident points vs ball");
+    assert_round_hit(
+        &out,
+        p0,
+        [-5.0, 0.0],
+        0.75,
+        EPS,
+        "coincident points vs ball",
+    );
 
     // Zero radius too: a point core of three coincident points against a box face.
     let dot = ShapeProxy::new(&[v(0.0, 0.0); 3], 0.0).unwrap();
@@ -564,7 +951,10 @@ fn coincident_points_act_as_a_circle() {
     let out = time_of_impact(&ToiInput::new(dot, sa, slab, sb));
     assert_eq!(out.state, ToiState::Hit, "{out:?}");
     // Height above the top face (y = 0): 3 - 4t; slop at t = (3 - slop) / 4.
-    assert!((out.fraction as f64 - (3.0 - SLOP) / 4.0).abs() <= (TOL + EPS) / 4.0, "{out:?}");
+    assert!(
+        (out.fraction as f64 - (3.0 - SLOP) / 4.0).abs() <= (TOL + EPS) / 4.0,
+        "{out:?}"
+    );
 }
 
 #[test]
@@ -577,7 +967,12 @@ fn collinear_polygon_proxy_acts_as_a_segment() {
         // it hits when 2 - 4t - 0.25 = slop; past the end, when its distance to the end point
         // (1, 0) is 0.25 + slop, if it ever gets that close.
         let sb = Sweep::new(Vec2::ZERO, v(x, 2.0), 0.0, v(x, -2.0), 0.0);
-        let out = time_of_impact(&ToiInput::new(rod, Sweep::stationary(Vec2::ZERO, Vec2::ZERO, 0.0), ball, sb));
+        let out = time_of_impact(&ToiInput::new(
+            rod,
+            Sweep::stationary(Vec2::ZERO, Vec2::ZERO, 0.0),
+            ball,
+            sb,
+        ));
         let what = format!("ball at x = {x} onto a collinear proxy");
         if !expect_hit {
             // Closest approach 0.4 - 0.25 = 0.15 m, 30 slops.
@@ -588,7 +983,10 @@ fn collinear_polygon_proxy_acts_as_a_segment() {
         if dx <= 0.0 {
             let t_star = (2.0 - 0.25 - SLOP) / 4.0;
             assert_eq!(out.state, ToiState::Hit, "{what}: {out:?}");
-            assert!((out.fraction as f64 - t_star).abs() <= (TOL + EPS) / 4.0, "{what}: {out:?}");
+            assert!(
+                (out.fraction as f64 - t_star).abs() <= (TOL + EPS) / 4.0,
+                "{what}: {out:?}"
+            );
         } else {
             // Relative to the end point (1, 0): the ball starts at (dx, 2), moves (0, -4).
             assert_round_hit(&out, [dx, 2.0], [0.0, -4.0], 0.25, EPS, &what);
@@ -603,7 +1001,14 @@ fn points_with_zero_radius() {
     // Head-on through each other: a hit at distance slop, t = (2 - slop) / 4.
     let through = Sweep::new(Vec2::ZERO, v(-2.0, 0.0), 0.0, v(2.0, 0.0), 0.0);
     let out = time_of_impact(&ToiInput::new(point, through, point, at_rest));
-    assert_round_hit(&out, [2.0, 0.0], [-4.0, 0.0], 0.0, EPS, "point through point");
+    assert_round_hit(
+        &out,
+        [2.0, 0.0],
+        [-4.0, 0.0],
+        0.0,
+        EPS,
+        "point through point",
+    );
     // Passing 1 m to the side: never within 1 m.
     let beside = Sweep::new(Vec2::ZERO, v(-2.0, 1.0), 0.0, v(2.0, 1.0), 0.0);
     let out = time_of_impact(&ToiInput::new(point, beside, point, at_rest));
@@ -634,7 +1039,12 @@ fn zero_motion() {
     assert!(out.separation < 0.0, "{out:?}");
     // Inside the band (surfaces exactly slop apart): a hit at 0 with that separation.
     let gap = LINEAR_SLOP;
-    let out = time_of_impact(&ToiInput::new(ball, rest(0.0, 0.0), slab, rest(1.5 + gap, 0.0)));
+    let out = time_of_impact(&ToiInput::new(
+        ball,
+        rest(0.0, 0.0),
+        slab,
+        rest(1.5 + gap, 0.0),
+    ));
     assert_eq!(out.state, ToiState::Hit, "{out:?}");
     assert_eq!(out.fraction, 0.0);
     assert!((out.separation as f64 - gap as f64).abs() <= EPS, "{out:?}");
@@ -655,7 +1065,11 @@ fn coordinates_around_1e5_give_correct_answers() {
     let base = v(1.0e5, -1.0e5);
     // Circles, head-on and oblique; the offsets are multiples of 1/128 (exact at 1e5).
     let ball = Shape::from(Circle::new(0.5).unwrap()).proxy();
-    for (b_off, vel) in [(v(3.0, 0.0), v(4.0, 0.0)), (v(3.0, 0.5), v(4.0, 0.0)), (v(-1.5, 2.25), v(-2.0, 3.0))] {
+    for (b_off, vel) in [
+        (v(3.0, 0.0), v(4.0, 0.0)),
+        (v(3.0, 0.5), v(4.0, 0.0)),
+        (v(-1.5, 2.25), v(-2.0, 3.0)),
+    ] {
         let sa = Sweep::new(Vec2::ZERO, base, 0.0, base + vel, 0.0);
         let sb = Sweep::stationary(Vec2::ZERO, base + b_off, 0.0);
         assert_eq!(sa.c1 - sa.c0, vel, "setup: exact at 1e5");
@@ -663,15 +1077,26 @@ fn coordinates_around_1e5_give_correct_answers() {
         let out = time_of_impact(&ToiInput::new(ball, sa, ball, sb));
         let p0 = [b_off.x as f64, b_off.y as f64];
         let rel = [-(vel.x as f64), -(vel.y as f64)];
-        assert_round_hit(&out, p0, rel, 1.0, EPS, &format!("circles at 1e5, offset {b_off}"));
+        assert_round_hit(
+            &out,
+            p0,
+            rel,
+            1.0,
+            EPS,
+            &format!("circles at 1e5, offset {b_off}"),
+        );
         // The world contact point carries the rounding of coordinates at 1e5 (half an ulp,
         // 3.9e-3 m, per component) on top of its place between the surfaces.
         let t = out.fraction as f64;
-        let ca = [base.x as f64 + t * vel.x as f64, base.y as f64 + t * vel.y as f64];
+        let ca = [
+            base.x as f64 + t * vel.x as f64,
+            base.y as f64 + t * vel.y as f64,
+        ];
         let cb = [base.x as f64 + p0[0], base.y as f64 + p0[1]];
         let mid = [0.5 * (ca[0] + cb[0]), 0.5 * (ca[1] + cb[1])];
         assert!(
-            (out.point.x as f64 - mid[0]).abs() < 1e-2 && (out.point.y as f64 - mid[1]).abs() < 1e-2,
+            (out.point.x as f64 - mid[0]).abs() < 1e-2
+                && (out.point.y as f64 - mid[1]).abs() < 1e-2,
             "point {:?} vs {mid:?}",
             out.point
         );
@@ -683,7 +1108,13 @@ fn coordinates_around_1e5_give_correct_answers() {
     let boxy = Shape::from(Polygon::rectangle(half[0] as f32, half[1] as f32).unwrap()).proxy();
     let slab = Shape::from(Polygon::rectangle(20.0, 1.0).unwrap()).proxy();
     let lc = v(0.125, 0.0625);
-    let sa = Sweep::new(lc, base + v(0.0, 3.0), 0.25, base + v(1.0, -1.0), 0.25 + std::f32::consts::TAU);
+    let sa = Sweep::new(
+        lc,
+        base + v(0.0, 3.0),
+        0.25,
+        base + v(1.0, -1.0),
+        0.25 + std::f32::consts::TAU,
+    );
     let sb = Sweep::stationary(Vec2::ZERO, base + v(0.0, -1.0), 0.0);
     let out = time_of_impact(&ToiInput::new(boxy, sa, slab, sb));
     let top = base.y as f64; // the slab's top face
@@ -703,13 +1134,19 @@ fn coordinates_around_1e5_give_correct_answers() {
     assert_eq!(out.state, ToiState::Hit, "{out:?}");
     let t = out.fraction as f64;
     let d = height(t);
-    assert!((d - SLOP).abs() <= TOL + EPS, "box at 1e5: surface distance {d} at {t}");
+    assert!(
+        (d - SLOP).abs() <= TOL + EPS,
+        "box at 1e5: surface distance {d} at {t}"
+    );
     // No earlier time below the band (dense f64 scan; the height changes by less than
     // 8 m per step (4 m/step of fall plus 2 pi rad/step times a 0.6 m reach), so 1e5 samples
     // miss at most 8e-5 m between them).
     for i in 0..100_000 {
         let s = t * i as f64 / 100_000.0;
-        assert!(height(s) >= SLOP - TOL - EPS, "box at 1e5: skipped a contact at {s}");
+        assert!(
+            height(s) >= SLOP - TOL - EPS,
+            "box at 1e5: skipped a contact at {s}"
+        );
     }
 }
 
@@ -722,13 +1159,22 @@ fn coordinates_around_1e5_give_correct_answers() {
 /// garbage too, as a caller could.
 fn garbage_proxy(rng: &mut Rng) -> Option<ShapeProxy> {
     let proxy = match rng.below(6) {
-        0 => Circle::new(rng.garbage()).ok().map(|c| Shape::from(c).proxy()),
-        1 => Capsule::new(v(rng.garbage(), rng.garbage()), v(rng.garbage(), rng.garbage()), rng.garbage())
+        0 => Circle::new(rng.garbage())
             .ok()
             .map(|c| Shape::from(c).proxy()),
-        2 => Segment::new(v(rng.garbage(), rng.garbage()), v(rng.garbage(), rng.garbage()))
-            .ok()
-            .map(|s| Shape::from(s).proxy()),
+        1 => Capsule::new(
+            v(rng.garbage(), rng.garbage()),
+            v(rng.garbage(), rng.garbage()),
+            rng.garbage(),
+        )
+        .ok()
+        .map(|c| Shape::from(c).proxy()),
+        2 => Segment::new(
+            v(rng.garbage(), rng.garbage()),
+            v(rng.garbage(), rng.garbage()),
+        )
+        .ok()
+        .map(|s| Shape::from(s).proxy()),
         3 => {
             let n = rng.below(12);
             let pts: Vec<Vec2> = (0..n).map(|_| v(rng.garbage(), rng.garbage())).collect();
@@ -739,7 +1185,10 @@ fn garbage_proxy(rng: &mut Rng) -> Option<ShapeProxy> {
             };
             if let Ok(p) = &poly {
                 // Whatever was accepted is a usable polygon.
-                assert!(p.vertices().iter().all(|q| q.is_finite()), "{pts:?} -> {p:?}");
+                assert!(
+                    p.vertices().iter().all(|q| q.is_finite()),
+                    "{pts:?} -> {p:?}"
+                );
                 assert!((3..=MAX_POLYGON_VERTICES).contains(&p.vertices().len()));
                 assert!(p.radius().is_finite() && p.radius() >= 0.0);
             }
@@ -748,7 +1197,9 @@ fn garbage_proxy(rng: &mut Rng) -> Option<ShapeProxy> {
         4 => {
             // Ordinary shapes at ordinary places, so that the fuzz also reaches deep into the
             // solver rather than stopping at validation.
-            let pts: Vec<Vec2> = (0..1 + rng.below(8)).map(|_| v(rng.range(-2.0, 2.0), rng.range(-2.0, 2.0))).collect();
+            let pts: Vec<Vec2> = (0..1 + rng.below(8))
+                .map(|_| v(rng.range(-2.0, 2.0), rng.range(-2.0, 2.0)))
+                .collect();
             ShapeProxy::new(&pts, rng.range(0.0, 0.5)).ok()
         }
         _ => {
@@ -796,9 +1247,18 @@ fn fuzz_time_of_impact_never_panics() {
     for case in 0..4000 {
         let proxy_a = garbage_proxy(&mut rng).unwrap_or(fallback);
         let proxy_b = garbage_proxy(&mut rng).unwrap_or(fallback);
-        let mut input = ToiInput::new(proxy_a, garbage_sweep(&mut rng), proxy_b, garbage_sweep(&mut rng));
+        let mut input = ToiInput::new(
+            proxy_a,
+            garbage_sweep(&mut rng),
+            proxy_b,
+            garbage_sweep(&mut rng),
+        );
         if rng.below(2) == 0 {
-            input.max_fraction = if rng.below(2) == 0 { rng.garbage() } else { rng.range(0.0, 1.0) };
+            input.max_fraction = if rng.below(2) == 0 {
+                rng.garbage()
+            } else {
+                rng.range(0.0, 1.0)
+            };
         }
         if rng.below(3) == 0 {
             input.config.linear_slop = rng.garbage();
@@ -823,7 +1283,10 @@ fn fuzz_time_of_impact_never_panics() {
             ToiState::Failed(_) => states[3] += 1,
         }
         if !range_ok {
-            assert!(matches!(out.state, ToiState::Failed(_)), "case {case}: bad max_fraction {t_max} accepted: {out:?}");
+            assert!(
+                matches!(out.state, ToiState::Failed(_)),
+                "case {case}: bad max_fraction {t_max} accepted: {out:?}"
+            );
         }
         // Every answer's fraction is a number in [0, max_fraction] (0 when rejected).
         let hi = if range_ok { t_max } else { 0.0 };
@@ -842,9 +1305,17 @@ fn fuzz_time_of_impact_never_panics() {
             );
         }
     }
-    assert!(panics.is_empty(), "{} panics:\n{}", panics.len(), panics.join("\n"));
+    assert!(
+        panics.is_empty(),
+        "{} panics:\n{}",
+        panics.len(),
+        panics.join("\n")
+    );
     // The loop must exercise the solver, not only the validation.
-    assert!(states[0] > 50 && states[1] > 50 && states[3] > 50, "states hit/sep/ovl/failed: {states:?}");
+    assert!(
+        states[0] > 50 && states[1] > 50 && states[3] > 50,
+        "states hit/sep/ovl/failed: {states:?}"
+    );
 }
 
 #[test]
@@ -856,10 +1327,19 @@ fn fuzz_shape_distance_never_panics() {
         let proxy_b = garbage_proxy(&mut rng).unwrap_or(fallback);
         let pose = |rng: &mut Rng| {
             if rng.below(2) == 0 {
-                Pose::new(v(rng.range(-5.0, 5.0), rng.range(-5.0, 5.0)), rng.range(-10.0, 10.0))
+                Pose::new(
+                    v(rng.range(-5.0, 5.0), rng.range(-5.0, 5.0)),
+                    rng.range(-10.0, 10.0),
+                )
             } else {
                 // Raw garbage, including non-unit and NaN rotations.
-                Pose { p: v(rng.garbage(), rng.garbage()), q: Rot { c: rng.garbage(), s: rng.garbage() } }
+                Pose {
+                    p: v(rng.garbage(), rng.garbage()),
+                    q: Rot {
+                        c: rng.garbage(),
+                        s: rng.garbage(),
+                    },
+                }
             }
         };
         let input = DistanceInput {
@@ -872,21 +1352,45 @@ fn fuzz_shape_distance_never_panics() {
         // A cache of garbage indices (from other shapes) must be ignored, not trusted.
         let mut cache = SimplexCache {
             count: (rng.next_u64() % 256) as u8,
-            index_a: [rng.next_u64() as u8, rng.next_u64() as u8, rng.next_u64() as u8],
-            index_b: [rng.next_u64() as u8, rng.next_u64() as u8, rng.next_u64() as u8],
+            index_a: [
+                rng.next_u64() as u8,
+                rng.next_u64() as u8,
+                rng.next_u64() as u8,
+            ],
+            index_b: [
+                rng.next_u64() as u8,
+                rng.next_u64() as u8,
+                rng.next_u64() as u8,
+            ],
         };
         let result = catch_unwind(AssertUnwindSafe(|| shape_distance(&input, &mut cache)));
-        let out = result.unwrap_or_else(|_| panic!("case {case}: shape_distance panicked on {input:?}"));
+        let out =
+            result.unwrap_or_else(|_| panic!("case {case}: shape_distance panicked on {input:?}"));
         // Whatever came back names valid features for the next warm start.
         assert!(cache.count <= 3, "case {case}: cache {cache:?}");
         for i in 0..cache.count as usize {
-            assert!((cache.index_a[i] as usize) < proxy_a.count() && (cache.index_b[i] as usize) < proxy_b.count());
+            assert!(
+                (cache.index_a[i] as usize) < proxy_a.count()
+                    && (cache.index_b[i] as usize) < proxy_b.count()
+            );
         }
         // Finite poses and shapes give a finite, non-negative core distance.
-        let finite = input.pose_a.is_finite() && input.pose_b.is_finite() && proxy_a.is_finite() && proxy_b.is_finite();
-        let sane = |p: &Pose| p.p.abs().max_element() < 1e6 && ((p.q.c * p.q.c + p.q.s * p.q.s) - 1.0).abs() < 1e-3;
-        let small = |pr: &ShapeProxy| pr.points().iter().all(|q| q.abs().max_element() < 1e6) && pr.radius.abs() < 1e6;
-        if finite && sane(&input.pose_a) && sane(&input.pose_b) && small(&proxy_a) && small(&proxy_b) {
+        let finite = input.pose_a.is_finite()
+            && input.pose_b.is_finite()
+            && proxy_a.is_finite()
+            && proxy_b.is_finite();
+        let sane = |p: &Pose| {
+            p.p.abs().max_element() < 1e6 && ((p.q.c * p.q.c + p.q.s * p.q.s) - 1.0).abs() < 1e-3
+        };
+        let small = |pr: &ShapeProxy| {
+            pr.points().iter().all(|q| q.abs().max_element() < 1e6) && pr.radius.abs() < 1e6
+        };
+        if finite
+            && sane(&input.pose_a)
+            && sane(&input.pose_b)
+            && small(&proxy_a)
+            && small(&proxy_b)
+        {
             assert!(out.distance.is_finite(), "case {case}: {out:?}");
             if !input.use_radii {
                 assert!(out.distance >= 0.0, "case {case}: {out:?}");

@@ -12,7 +12,11 @@ use oracle::{EPS, SLOP, Verdict, load_cases, score};
 #[test]
 fn oracle_cases_all_correct() {
     let cases = load_cases();
-    assert!(cases.len() >= 1000, "expected the full oracle set, got {}", cases.len());
+    assert!(
+        cases.len() >= 1000,
+        "expected the full oracle set, got {}",
+        cases.len()
+    );
     let mut tally: BTreeMap<(String, Verdict), usize> = BTreeMap::new();
     let mut bad = Vec::new();
     let mut max_hit_error: f64 = 0.0;
@@ -23,7 +27,10 @@ fn oracle_cases_all_correct() {
         *tally.entry((case.family.clone(), verdict)).or_default() += 1;
         worst_iterations = worst_iterations.max(out.iterations);
         if verdict != Verdict::Correct {
-            bad.push(format!("{} {:?} {:?} t={} d={:?} it={}", case.id, verdict, out.state, out.fraction, d, out.iterations));
+            bad.push(format!(
+                "{} {:?} {:?} t={} d={:?} it={}",
+                case.id, verdict, out.state, out.fraction, d, out.iterations
+            ));
         }
         if out.state == ToiState::Hit && out.fraction > 0.0 {
             // A hit found by advancing (not touching at the start) must land in the band
@@ -38,6 +45,13 @@ fn oracle_cases_all_correct() {
     for ((family, verdict), n) in &tally {
         eprintln!("{family:>18} {verdict:?}: {n}");
     }
-    eprintln!("max |d - slop| over advancing hits: {max_hit_error:.2e}; worst iterations {worst_iterations}");
-    assert!(bad.is_empty(), "{} cases wrong:\n{}", bad.len(), bad.join("\n"));
+    eprintln!(
+        "max |d - slop| over advancing hits: {max_hit_error:.2e}; worst iterations {worst_iterations}"
+    );
+    assert!(
+        bad.is_empty(),
+        "{} cases wrong:\n{}",
+        bad.len(),
+        bad.join("\n")
+    );
 }

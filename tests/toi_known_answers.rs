@@ -48,9 +48,11 @@ fn band_constants_are_the_documented_ones() {
 /// The first `t` in `[0, t_end]` where `f(t) <= level`, found by dense sampling (`n` steps)
 /// then bisection to 1e-13. `None` when no sample reaches the level.
 ///
-/// Dense sampling can only miss a dip narrower than `t_end / n`; every function used here is
-/// smooth with derivatives of order 10 (m per step), so with `n = 20_000` a missed dip would be
-/// shallower than ~1e-7 m, far inside `EPS`.
+/// Dense sampling can only miss a dip between two samples. Every function used here is the
+/// minimum of smooth pieces whose second derivative `K` is at most ~360 m per step² (the rod
+/// spinning three turns: (6 pi)² × 1 m), and such a function lies at most `K Δt² / 8` below
+/// the chord of its samples: with `n = 20_000` on the unit step that is ~1e-7 m, far inside
+/// `EPS`.
 fn first_crossing(f: &dyn Fn(f64) -> f64, level: f64, t_end: f64, n: usize) -> Option<f64> {
     if f(0.0) <= level {
         return Some(0.0);
@@ -86,7 +88,11 @@ fn assert_hit_in_window(
     eps: f64,
     what: &str,
 ) -> (f64, f64) {
-    assert_eq!(out.state, ToiState::Hit, "{what}: expected a hit, got {out:?}");
+    assert_eq!(
+        out.state,
+        ToiState::Hit,
+        "{what}: expected a hit, got {out:?}"
+    );
     let t_enter = first_crossing(d, SLOP + TOL + eps, 1.0, 20_000)
         .unwrap_or_else(|| panic!("{what}: test setup: the distance never enters the band"));
     let t_deep = first_crossing(d, SLOP - TOL - eps, 1.0, 20_000).unwrap_or(1.0);
@@ -144,7 +150,8 @@ fn quadratic_first_root(p0: [f64; 2], v: [f64; 2], r: f64) -> Option<f64> {
 #[test]
 fn circle_circle_linear_motion_matches_the_quadratic_formula() {
     // (radius A, radius B, A start, A end, B start, B end)
-    let cases: [(f64, f64, [f64; 2], [f64; 2], [f64; 2], [f64; 2]); 6] = [
+    type Case = (f64, f64, [f64; 2], [f64; 2], [f64; 2], [f64; 2]);
+    let cases: [Case; 6] = [
         // Head-on, A moving, B at rest.
         (0.5, 0.5, [0.0, 0.0], [4.0, 0.0], [3.0, 0.0], [3.0, 0.0]),
         // Head-on, both moving toward each other.
@@ -154,7 +161,14 @@ fn circle_circle_linear_motion_matches_the_quadratic_formula() {
         // Diagonal, B chasing A from behind.
         (0.1, 0.2, [0.0, 0.0], [1.0, 1.0], [-2.0, -2.0], [3.0, 3.0]),
         // Small and fast: 50 m in one step.
-        (0.05, 0.05, [0.0, 0.0], [50.0, 0.0], [25.0, 0.01], [25.0, 0.01]),
+        (
+            0.05,
+            0.05,
+            [0.0, 0.0],
+            [50.0, 0.0],
+            [25.0, 0.01],
+            [25.0, 0.01],
+        ),
         // Large and slow.
         (5.0, 7.0, [0.0, 0.0], [0.0, 0.5], [0.0, 12.3], [0.0, 12.3]),
     ];
@@ -170,7 +184,10 @@ fn circle_circle_linear_motion_matches_the_quadratic_formula() {
         let f = |p: Vec2| [p.x as f64, p.y as f64];
         let (pa0, pa1, pb0, pb1) = (f(sweep_a.c0), f(sweep_a.c1), f(sweep_b.c0), f(sweep_b.c1));
         let p0 = [pb0[0] - pa0[0], pb0[1] - pa0[1]];
-        let v = [(pb1[0] - pb0[0]) - (pa1[0] - pa0[0]), (pb1[1] - pb0[1]) - (pa1[1] - pa0[1])];
+        let v = [
+            (pb1[0] - pb0[0]) - (pa1[0] - pa0[0]),
+            (pb1[1] - pb0[1]) - (pa1[1] - pa0[1]),
+        ];
         let (ra, rb) = (proxy_a.radius as f64, proxy_b.radius as f64);
         let t_star = quadratic_first_root(p0, v, ra + rb + SLOP).expect("setup: circles meet");
         // The band in time: the surfaces are slop + slop/4 apart at t_early and slop - slop/4
@@ -210,7 +227,10 @@ fn circle_circle_linear_motion_matches_the_quadratic_formula() {
             "{what}: normal {:?} vs {n:?}",
             out.normal
         );
-        let ca = [pa0[0] + t * (pa1[0] - pa0[0]), pa0[1] + t * (pa1[1] - pa0[1])];
+        let ca = [
+            pa0[0] + t * (pa1[0] - pa0[0]),
+            pa0[1] + t * (pa1[1] - pa0[1]),
+        ];
         let mid = ra + 0.5 * (len - ra - rb);
         let expect = [ca[0] + mid * n[0], ca[1] + mid * n[1]];
         assert!(
@@ -228,7 +248,13 @@ fn circles_that_pass_each_other_are_separated() {
     // 0.1 m, 20 slops: no hit is possible.
     let a = Shape::from(Circle::new(0.4).unwrap()).proxy();
     let b = Shape::from(Circle::new(0.5).unwrap()).proxy();
-    let sa = Sweep::new(Vec2::ZERO, Vec2::new(-5.0, 0.0), 0.0, Vec2::new(5.0, 0.0), 0.0);
+    let sa = Sweep::new(
+        Vec2::ZERO,
+        Vec2::new(-5.0, 0.0),
+        0.0,
+        Vec2::new(5.0, 0.0),
+        0.0,
+    );
     let sb = Sweep::stationary(Vec2::ZERO, Vec2::new(0.0, 1.0), 0.0);
     let out = time_of_impact(&ToiInput::new(a, sa, b, sb));
     assert_eq!(out.state, ToiState::Separated, "{out:?}");
@@ -248,8 +274,16 @@ fn planes() -> [(&'static str, ShapeProxy, Sweep); 2] {
     let seg = Shape::from(Segment::new(Vec2::new(-e, 0.0), Vec2::new(e, 0.0)).unwrap());
     let slab = Shape::from(Polygon::rectangle(e, 1.0).unwrap());
     [
-        ("segment plane", seg.proxy(), Sweep::stationary(Vec2::ZERO, Vec2::ZERO, 0.0)),
-        ("box plane", slab.proxy(), Sweep::stationary(Vec2::ZERO, Vec2::new(0.0, -1.0), 0.0)),
+        (
+            "segment plane",
+            seg.proxy(),
+            Sweep::stationary(Vec2::ZERO, Vec2::ZERO, 0.0),
+        ),
+        (
+            "box plane",
+            slab.proxy(),
+            Sweep::stationary(Vec2::ZERO, Vec2::new(0.0, -1.0), 0.0),
+        ),
     ]
 }
 
@@ -257,7 +291,11 @@ fn planes() -> [(&'static str, ShapeProxy, Sweep); 2] {
 /// y = 0, in `f64`: the lowest core point minus the radius. Exact while the body stays within
 /// |x| < 10 (the extent of both planes), which every case here does.
 fn height_above_plane(points: &[Vec2], radius: f64, sweep: &Sweep, t: f64) -> f64 {
-    points.iter().map(|p| world(sweep, *p, t)[1]).fold(f64::INFINITY, f64::min) - radius
+    points
+        .iter()
+        .map(|p| world(sweep, *p, t)[1])
+        .fold(f64::INFINITY, f64::min)
+        - radius
 }
 
 #[test]
@@ -268,7 +306,13 @@ fn point_against_plane_translation_and_rotation() {
     for (plane_name, plane, plane_sweep) in planes() {
         for (body_name, body) in [("point", point), ("tiny circle", tiny)] {
             // Pure translation: y(t) = 2 - 4t at the centre; x drifts.
-            let sweep = Sweep::new(Vec2::ZERO, Vec2::new(0.3, 2.0), 0.0, Vec2::new(1.7, -2.0), 0.0);
+            let sweep = Sweep::new(
+                Vec2::ZERO,
+                Vec2::new(0.3, 2.0),
+                0.0,
+                Vec2::new(1.7, -2.0),
+                0.0,
+            );
             let out = time_of_impact(&ToiInput::new(body, sweep, plane, plane_sweep));
             let r = body.radius as f64;
             let d = |t: f64| 2.0 - 4.0 * t - r;
@@ -299,7 +343,12 @@ fn point_against_plane_translation_and_rotation() {
             let d = |t: f64| 2.0 - 4.0 * t + 0.5 * (3.0 * PI * t).sin() - r;
             // Cross-check the generic f64 evaluation against the closed form.
             assert!((height_above_plane(&[local], r, &sweep, 0.37) - d(0.37)).abs() < 1e-6);
-            assert_hit_in_window(&out, &d, EPS, &format!("{body_name} spinning onto {plane_name}"));
+            assert_hit_in_window(
+                &out,
+                &d,
+                EPS,
+                &format!("{body_name} spinning onto {plane_name}"),
+            );
         }
     }
 }
@@ -321,13 +370,22 @@ fn box_against_plane_translation_and_rotation() {
             let r = radius as f64;
 
             // Pure translation, level box: the bottom face comes down flat.
-            let sweep = Sweep::new(Vec2::ZERO, Vec2::new(0.0, 2.0), 0.0, Vec2::new(0.5, -1.0), 0.0);
+            let sweep = Sweep::new(
+                Vec2::ZERO,
+                Vec2::new(0.0, 2.0),
+                0.0,
+                Vec2::new(0.5, -1.0),
+                0.0,
+            );
             let out = time_of_impact(&ToiInput::new(body, sweep, plane, plane_sweep));
             let what = format!("box r={radius} translating onto {plane_name}");
             let d = |t: f64| 2.0 - 3.0 * t - hy as f64 - r;
             assert_hit_in_window(&out, &d, EPS, &what);
             let t_star = (2.0 - hy as f64 - r - SLOP) / 3.0;
-            assert!((out.fraction as f64 - t_star).abs() <= (TOL + EPS) / 3.0, "{what}");
+            assert!(
+                (out.fraction as f64 - t_star).abs() <= (TOL + EPS) / 3.0,
+                "{what}"
+            );
             // The normal is vertical: (0, -1) from the box (A) to the plane (B). GJK takes the
             // normal from the difference of the two witness points, whose coordinates reach the
             // plane's extent: each carries ~1 ulp of that (9.5e-7 m at 10 m), over a 5 mm gap.
@@ -351,7 +409,12 @@ fn box_against_plane_translation_and_rotation() {
             );
             let out = time_of_impact(&ToiInput::new(body, sweep, plane, plane_sweep));
             let d = |t: f64| height_above_plane(&corners, r, &sweep, t);
-            assert_hit_in_window(&out, &d, EPS, &format!("box r={radius} spinning onto {plane_name}"));
+            assert_hit_in_window(
+                &out,
+                &d,
+                EPS,
+                &format!("box r={radius} spinning onto {plane_name}"),
+            );
         }
     }
 }
@@ -365,7 +428,12 @@ fn box_against_plane_translation_and_rotation() {
 #[test]
 fn box2d_box_versus_segment_hits_at_one_half() {
     let box_a = ShapeProxy::new(
-        &[Vec2::new(-1.0, -1.0), Vec2::new(1.0, -1.0), Vec2::new(1.0, 1.0), Vec2::new(-1.0, 1.0)],
+        &[
+            Vec2::new(-1.0, -1.0),
+            Vec2::new(1.0, -1.0),
+            Vec2::new(1.0, 1.0),
+            Vec2::new(-1.0, 1.0),
+        ],
         0.0,
     )
     .unwrap();
@@ -396,12 +464,23 @@ fn box2d_box_versus_segment_hits_at_one_half() {
 /// lowest point is `height + min(0, sin(angle))`, and the tip reaches the target when
 /// `sin(angle) = slop - height`.
 fn catto_triangle(height: f32, slop: f32) -> (ToiOutput, Box<dyn Fn(f64) -> f64>) {
-    let tri = ShapeProxy::new(&[Vec2::ZERO, Vec2::new(1.0, 0.0), Vec2::new(0.5, 0.5)], 0.0).unwrap();
+    let tri =
+        ShapeProxy::new(&[Vec2::ZERO, Vec2::new(1.0, 0.0), Vec2::new(0.5, 0.5)], 0.0).unwrap();
     let plane = Shape::from(Segment::new(Vec2::new(-10.0, 0.0), Vec2::new(10.0, 0.0)).unwrap());
     let a0 = std::f32::consts::FRAC_PI_4;
-    let sweep = Sweep::new(Vec2::ZERO, Vec2::new(0.0, height), a0, Vec2::new(0.0, height), -a0);
-    let mut input =
-        ToiInput::new(tri, sweep, plane.proxy(), Sweep::stationary(Vec2::ZERO, Vec2::ZERO, 0.0));
+    let sweep = Sweep::new(
+        Vec2::ZERO,
+        Vec2::new(0.0, height),
+        a0,
+        Vec2::new(0.0, height),
+        -a0,
+    );
+    let mut input = ToiInput::new(
+        tri,
+        sweep,
+        plane.proxy(),
+        Sweep::stationary(Vec2::ZERO, Vec2::ZERO, 0.0),
+    );
     input.config.linear_slop = slop;
     let out = time_of_impact(&input);
     let h = height as f64;
@@ -425,19 +504,32 @@ fn catto_rotating_triangle_default_slop() {
     // t = (pi/4 - angle) / (pi/2).
     let t_star = (PI / 4.0 - (SLOP - 1e-2f32 as f64).asin()) / (PI / 2.0);
     // Near the root the tip falls at cos(angle) * pi/2 ~ 1.57 m per step.
-    assert!((out.fraction as f64 - t_star).abs() <= (TOL + EPS) / 1.5, "{out:?} vs {t_star}");
-    assert!(out.iterations <= 10, "catto h=1e-2: {} iterations", out.iterations);
+    assert!(
+        (out.fraction as f64 - t_star).abs() <= (TOL + EPS) / 1.5,
+        "{out:?} vs {t_star}"
+    );
+    assert!(
+        out.iterations <= 10,
+        "catto h=1e-2: {} iterations",
+        out.iterations
+    );
 
     for h in [1e-3f32, 1e-4, 1e-5, 1e-6] {
         let (out, _) = catto_triangle(h, LINEAR_SLOP);
         assert_eq!(out.state, ToiState::Hit, "h={h}: {out:?}");
-        assert_eq!(out.fraction, 0.0, "h={h}: the pivot is within the target at t = 0");
+        assert_eq!(
+            out.fraction, 0.0,
+            "h={h}: the pivot is within the target at t = 0"
+        );
         assert!(
             (out.separation as f64 - h as f64).abs() <= EPS,
             "h={h}: separation {} should be the pivot height",
             out.separation
         );
-        assert_eq!(out.iterations, 1, "h={h}: one GJK call answers a hit at t = 0");
+        assert_eq!(
+            out.iterations, 1,
+            "h={h}: one GJK call answers a hit at t = 0"
+        );
     }
 }
 
@@ -466,11 +558,17 @@ fn catto_rotating_triangle_pivot_just_outside_band() {
     // A constant bound over all h: a 1.57 m/step Lipschitz bound over half a step against a
     // 2.5 mm gap needs ~160 certified pieces at 24 evaluations per advance, i.e. about 7-12
     // advances; 16 leaves room without hiding a regression towards the 200 iteration cap.
-    assert!(iterations.iter().all(|&n| n <= 16), "iterations {iterations:?} exceed 16");
+    assert!(
+        iterations.iter().all(|&n| n <= 16),
+        "iterations {iterations:?} exceed 16"
+    );
     // Does not grow as h shrinks once the band floor dominates the gap (h <= 1e-4).
     let tail = &iterations[2..];
     let (max, min) = (*tail.iter().max().unwrap(), *tail.iter().min().unwrap());
-    assert!(max - min <= 1, "iterations grow as h shrinks: {iterations:?}");
+    assert!(
+        max - min <= 1,
+        "iterations grow as h shrinks: {iterations:?}"
+    );
 }
 
 /// Catto's worst case proper: the slop scaled with h (slop = h / 2), so the pivot is always
@@ -497,13 +595,19 @@ fn catto_rotating_triangle_slop_scaled_with_h() {
         // 7% of the smallest band here, 1.5e-4 / 4 * 2).
         let (s, tol) = (slop as f64, 0.25 * slop as f64);
         let dist = d(out.fraction as f64);
-        assert!((dist - s).abs() <= tol + EPS, "{what}: distance {dist} at {out:?}");
+        assert!(
+            (dist - s).abs() <= tol + EPS,
+            "{what}: distance {dist} at {out:?}"
+        );
         assert!(out.fraction > 0.4, "{what}: the tip makes the hit: {out:?}");
         iterations.push(out.iterations);
     }
     let max = *iterations.iter().max().unwrap();
     let min = *iterations.iter().min().unwrap();
-    assert!(max <= 16 && max - min <= 2, "iterations grow as h shrinks: {iterations:?}");
+    assert!(
+        max <= 16 && max - min <= 2,
+        "iterations grow as h shrinks: {iterations:?}"
+    );
 }
 
 /// The same worst case at the default slop, made hard by size instead of by h: a 16 m triangle
@@ -520,14 +624,24 @@ fn catto_rotating_triangle_slop_scaled_with_h() {
 fn catto_rotating_triangle_large_body_default_slop() {
     let scale = 16.0f32;
     let tri = ShapeProxy::new(
-        &[Vec2::ZERO, Vec2::new(scale, 0.0), Vec2::new(0.5 * scale, 0.5 * scale)],
+        &[
+            Vec2::ZERO,
+            Vec2::new(scale, 0.0),
+            Vec2::new(0.5 * scale, 0.5 * scale),
+        ],
         0.0,
     )
     .unwrap();
     let plane = Shape::from(Segment::new(Vec2::new(-100.0, 0.0), Vec2::new(100.0, 0.0)).unwrap());
     let a0 = std::f32::consts::FRAC_PI_4;
     let height = 0.008f32;
-    let sweep = Sweep::new(Vec2::ZERO, Vec2::new(0.0, height), a0, Vec2::new(0.0, height), -a0);
+    let sweep = Sweep::new(
+        Vec2::ZERO,
+        Vec2::new(0.0, height),
+        a0,
+        Vec2::new(0.0, height),
+        -a0,
+    );
     let input = ToiInput::new(
         tri,
         sweep,
@@ -555,8 +669,14 @@ fn catto_rotating_triangle_large_body_default_slop() {
 #[test]
 fn spinning_rod_glancing_a_wall_is_a_hit() {
     let rods = [
-        ("segment rod", Shape::from(Segment::new(Vec2::new(-1.0, 0.0), Vec2::new(1.0, 0.0)).unwrap())),
-        ("box rod", Shape::from(Polygon::rectangle(1.0, 0.01).unwrap())),
+        (
+            "segment rod",
+            Shape::from(Segment::new(Vec2::new(-1.0, 0.0), Vec2::new(1.0, 0.0)).unwrap()),
+        ),
+        (
+            "box rod",
+            Shape::from(Polygon::rectangle(1.0, 0.01).unwrap()),
+        ),
     ];
     let wall = Shape::from(Segment::new(Vec2::new(0.95, -5.0), Vec2::new(0.95, 5.0)).unwrap());
     let wall_sweep = Sweep::stationary(Vec2::ZERO, Vec2::ZERO, 0.0);
@@ -565,7 +685,10 @@ fn spinning_rod_glancing_a_wall_is_a_hit() {
         // The rod's corners in local frame (a segment: two points; the box: four corners).
         let pts: Vec<Vec2> = rod.proxy().points().to_vec();
         let d = |t: f64| {
-            0.95 - pts.iter().map(|p| world(&sweep, *p, t)[0]).fold(f64::NEG_INFINITY, f64::max)
+            0.95 - pts
+                .iter()
+                .map(|p| world(&sweep, *p, t)[0])
+                .fold(f64::NEG_INFINITY, f64::max)
         };
         // Two roots: clear at both ends, overlapping in the middle (test setup).
         assert!(d(0.0) > 0.05 && d(1.0) > 0.05 && d(0.5) < -0.04, "setup");
@@ -575,7 +698,10 @@ fn spinning_rod_glancing_a_wall_is_a_hit() {
             // Closed form: cos(angle) = 0.95 - slop at angle = -acos(0.95 - slop).
             let t_star = 0.5 - (0.95f32 as f64 - SLOP).acos();
             // Near the root the tip moves in x at |sin(angle)| ~ 0.33 m per step.
-            assert!((out.fraction as f64 - t_star).abs() <= (TOL + EPS) / 0.3, "{out:?}");
+            assert!(
+                (out.fraction as f64 - t_star).abs() <= (TOL + EPS) / 0.3,
+                "{out:?}"
+            );
         }
     }
 }
@@ -587,7 +713,13 @@ fn rod_spinning_three_turns_hits_on_first_approach() {
     let rod = Shape::from(Segment::new(Vec2::new(-1.0, 0.0), Vec2::new(1.0, 0.0)).unwrap());
     let wall = Shape::from(Segment::new(Vec2::new(0.97, -5.0), Vec2::new(0.97, 5.0)).unwrap());
     let a0 = std::f32::consts::FRAC_PI_2;
-    let sweep = Sweep::new(Vec2::ZERO, Vec2::ZERO, a0, Vec2::ZERO, a0 + 6.0 * std::f32::consts::PI);
+    let sweep = Sweep::new(
+        Vec2::ZERO,
+        Vec2::ZERO,
+        a0,
+        Vec2::ZERO,
+        a0 + 6.0 * std::f32::consts::PI,
+    );
     let out = time_of_impact(&ToiInput::new(
         rod.proxy(),
         sweep,
@@ -612,7 +744,8 @@ fn rod_spinning_three_turns_hits_on_first_approach() {
 #[test]
 fn fast_bullet_against_thin_wall() {
     let wall_box = Shape::from(Polygon::rectangle(0.005, 2.0).unwrap()).proxy();
-    let wall_seg = Shape::from(Segment::new(Vec2::new(0.0, -2.0), Vec2::new(0.0, 2.0)).unwrap()).proxy();
+    let wall_seg =
+        Shape::from(Segment::new(Vec2::new(0.0, -2.0), Vec2::new(0.0, 2.0)).unwrap()).proxy();
     let ball = Shape::from(Circle::new(0.01).unwrap()).proxy();
     let point = ShapeProxy::new(&[Vec2::ZERO], 0.0).unwrap();
     // The bullet flies from x = -1000 to x = +1000 at y = 0.3. Rounding here is that of
@@ -625,7 +758,13 @@ fn fast_bullet_against_thin_wall() {
         ("ball vs segment wall", ball, wall_seg, 0.0),
     ] {
         for (dir, from, to) in [("+x", -1000.0f32, 1000.0f32), ("-x", 1000.0, -1000.0)] {
-            let sweep = Sweep::new(Vec2::ZERO, Vec2::new(from, 0.3), 0.0, Vec2::new(to, 0.3), 0.0);
+            let sweep = Sweep::new(
+                Vec2::ZERO,
+                Vec2::new(from, 0.3),
+                0.0,
+                Vec2::new(to, 0.3),
+                0.0,
+            );
             let out = time_of_impact(&ToiInput::new(
                 bullet,
                 sweep,
@@ -657,8 +796,20 @@ fn bullet_stopping_short_or_moving_away_is_separated() {
     let ball = Shape::from(Circle::new(0.01).unwrap()).proxy();
     // Stops 2 cm (4 slops) short of the wall face.
     let stop = -(0.005 + 0.01 + 0.02);
-    let short = Sweep::new(Vec2::ZERO, Vec2::new(-1000.0, 0.0), 0.0, Vec2::new(stop, 0.0), 0.0);
-    let away = Sweep::new(Vec2::ZERO, Vec2::new(0.05, 0.0), 0.0, Vec2::new(1000.0, 0.0), 0.0);
+    let short = Sweep::new(
+        Vec2::ZERO,
+        Vec2::new(-1000.0, 0.0),
+        0.0,
+        Vec2::new(stop, 0.0),
+        0.0,
+    );
+    let away = Sweep::new(
+        Vec2::ZERO,
+        Vec2::new(0.05, 0.0),
+        0.0,
+        Vec2::new(1000.0, 0.0),
+        0.0,
+    );
     for sweep in [short, away] {
         let out = time_of_impact(&ToiInput::new(
             ball,
@@ -669,4 +820,3 @@ fn bullet_stopping_short_or_moving_away_is_separated() {
         assert_eq!(out.state, ToiState::Separated, "{sweep:?}: {out:?}");
     }
 }
-

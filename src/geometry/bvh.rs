@@ -54,6 +54,10 @@ const STACK_SIZE: usize = SAH_MAX_DEPTH as usize + 32;
 
 const _: () = assert!(LEAF_MAX_ITEMS == 4 && STACK_SIZE >= SAH_MAX_DEPTH as usize + 30);
 
+/// From this many items on, the build first sorts them along a Morton curve (see
+/// [`morton_sort`]). Below, the sort costs more than it saves (about 15 % slower at 1,000).
+const MORTON_SORT_MIN_ITEMS: usize = 4096;
+
 /// The most items one build accepts: node indices are `u32` and a tree of `n` leaves has fewer
 /// than `2n` nodes.
 const MAX_ITEMS: usize = (u32::MAX / 2) as usize;
@@ -68,13 +72,20 @@ const EMPTY: Vec4 = Vec4::INFINITY;
 /// [`Aabb::is_valid`] (non-finite or inverted).
 #[inline]
 fn pack(b: &Aabb) -> Vec4 {
-    if b.is_valid() { Vec4::new(b.min.x, b.min.y, -b.max.x, -b.max.y) } else { EMPTY }
+    if b.is_valid() {
+        Vec4::new(b.min.x, b.min.y, -b.max.x, -b.max.y)
+    } else {
+        EMPTY
+    }
 }
 
 /// The box a packed box stands for.
 #[inline]
 fn unpack(v: Vec4) -> Aabb {
-    Aabb { min: Vec2::new(v.x, v.y), max: Vec2::new(-v.z, -v.w) }
+    Aabb {
+        min: Vec2::new(v.x, v.y),
+        max: Vec2::new(-v.z, -v.w),
+    }
 }
 
 /// Half the perimeter of a packed, non-empty box: the SAH cost of visiting it in 2D.
@@ -125,9 +136,43 @@ struct BuildItem {
     id: u32,
 }
 
-/// A node still to be built: its index and its range of build items.
+/// The bounds of a run of build items: their packed box and the range of their centroids
+/// (which is what SAH bins).
+#[derive(Clone, Copy, Debug)]
+struct Extent {
+    bounds: Vec4,
+    cmin: Vec2,
+    cmax: Vec2,
+}
+
+impl Extent {
+    const EMPTY: Self = Self {
+        bounds: EMPTY,
+        cmin: Vec2::INFINITY,
+        cmax: Vec2::NEG_INFINITY,
+    };
+
+    #[inline]
+    fn add(&mut self, item: &BuildItem) {
+        self.bounds = self.bounds.min(item.bounds);
+        self.cmin = self.cmin.min(item.centroid);
+        self.cmax = self.cmax.max(item.centroid);
+    }
+
+    fn of(items: &[BuildItem]) -> Self {
+        let mut e = Self::EMPTY;
+        for item in items {
+            e.add(item);
+        }
+        e
+    }
+}
+
+/// A node still to be built: its index, its range of build items and their extent (known from
+/// the parent's split, so no node rescans its items just to find its bounds).
 #[derive(Clone, Copy, Debug)]
 struct BuildTask {
+    extent: Extent,
     node: u32,
     start: u32,
     end: u32,
@@ -139,6 +184,9 @@ struct BuildTask {
 #[derive(Default)]
 struct BuildScratch {
     items: Vec<BuildItem>,
+    /// Second item buffer and sort keys of [`morton_sort`].
+    sorted: Vec<BuildItem>,
+    keys: Vec<u64>,
     tasks: Vec<BuildTask>,
 }
 
@@ -148,7 +196,7 @@ impl Clone for BuildScratch {
     }
 }
 
-/// One SAH bin: the items whose centroid falls in a slice of the node's centroid bounds.
+/// One SAH bin: the items whose centroid falls in a slice of the node's centroid range.
 #[derive(Clone, Copy)]
 struct Bin {
     bounds: Vec4,
@@ -210,8 +258,19 @@ impl Bvh {
     ///
     /// If `items` holds more than `u32::MAX / 2` entries (node indices are `u32`).
     pub fn build(&mut self, items: &[(u32, Aabb)]) {
-        assert!(items.len() <= MAX_ITEMS, "Bvh::build: more than u32::MAX / 2 items");
-        let Self { nodes, item_bounds, item_ids, item_inputs, input_len, depth, scratch } = self;
+        assert!(
+            items.len() <= MAX_ITEMS,
+            "Bvh::build: more than u32::MAX / 2 items"
+        );
+        let Self {
+            nodes,
+            item_bounds,
+            item_ids,
+            item_inputs,
+            input_len,
+            depth,
+            scratch,
+        } = self;
         nodes.clear();
         item_bounds.clear();
         item_ids.clear();
@@ -221,56 +280,98 @@ impl Bvh {
 
         let build = &mut scratch.items;
         build.clear();
-        build.extend(items.iter().enumerate().filter(|(_, (_, b))| b.is_valid()).map(
-            |(i, &(id, b))| BuildItem {
-                bounds: pack(&b),
-                // Halve before adding: `min + max` can overflow for huge finite boxes.
-                centroid: 0.5 * b.min + 0.5 * b.max,
-                input: i as u32,
-                id,
-            },
-        ));
+        build.extend(
+            items
+                .iter()
+                .enumerate()
+                .filter(|(_, (_, b))| b.is_valid())
+                .map(|(i, &(id, b))| BuildItem {
+                    bounds: pack(&b),
+                    // Halve before adding: `min + max` can overflow for huge finite boxes.
+                    centroid: 0.5 * b.min + 0.5 * b.max,
+                    input: i as u32,
+                    id,
+                }),
+        );
         if build.is_empty() {
             return;
         }
 
         // A binary tree with leaves of at least one item has at most 2n - 1 nodes.
         nodes.reserve(2 * build.len() - 1);
-        nodes.push(Node { bounds: EMPTY, first: 0, count: 0 });
+        nodes.push(Node {
+            bounds: EMPTY,
+            first: 0,
+            count: 0,
+        });
         let tasks = &mut scratch.tasks;
         tasks.clear();
-        tasks.push(BuildTask { node: 0, start: 0, end: build.len() as u32, depth: 0 });
+        let extent = Extent::of(build);
+        if build.len() >= MORTON_SORT_MIN_ITEMS {
+            morton_sort(build, &mut scratch.sorted, &mut scratch.keys, &extent);
+        }
+        let build = &mut scratch.items;
+        tasks.push(BuildTask {
+            extent,
+            node: 0,
+            start: 0,
+            end: build.len() as u32,
+            depth: 0,
+        });
 
         while let Some(task) = tasks.pop() {
             let range = &mut build[task.start as usize..task.end as usize];
-            let mut bounds = EMPTY;
-            let mut cmin = Vec2::INFINITY;
-            let mut cmax = Vec2::NEG_INFINITY;
-            for item in range.iter() {
-                bounds = bounds.min(item.bounds);
-                cmin = cmin.min(item.centroid);
-                cmax = cmax.max(item.centroid);
-            }
+            let bounds = task.extent.bounds;
             *depth = (*depth).max(task.depth);
-
             if range.len() <= LEAF_MAX_ITEMS {
-                nodes[task.node as usize] =
-                    Node { bounds, first: task.start, count: range.len() as u32 };
+                nodes[task.node as usize] = Node {
+                    bounds,
+                    first: task.start,
+                    count: range.len() as u32,
+                };
                 continue;
             }
 
-            let mid = task.start + split(range, cmin, cmax, task.depth) as u32;
+            let (mid, left_extent, right_extent) = split(range, &task.extent, task.depth);
+            let mid = task.start + mid as u32;
             let left = nodes.len() as u32;
-            nodes.push(Node { bounds: EMPTY, first: 0, count: 0 });
-            nodes.push(Node { bounds: EMPTY, first: 0, count: 0 });
-            nodes[task.node as usize] = Node { bounds, first: left, count: 0 };
+            nodes.push(Node {
+                bounds: EMPTY,
+                first: 0,
+                count: 0,
+            });
+            nodes.push(Node {
+                bounds: EMPTY,
+                first: 0,
+                count: 0,
+            });
+            nodes[task.node as usize] = Node {
+                bounds,
+                first: left,
+                count: 0,
+            };
             // Right pushed first so the left subtree is built (and laid out) first: a
             // depth-first layout keeps nearby nodes close in memory.
-            let child_depth = task.depth + 1;
-            tasks.push(BuildTask { node: left + 1, start: mid, end: task.end, depth: child_depth });
-            tasks.push(BuildTask { node: left, start: task.start, end: mid, depth: child_depth });
+            let (start, end, depth) = (task.start, task.end, task.depth + 1);
+            tasks.push(BuildTask {
+                extent: right_extent,
+                node: left + 1,
+                start: mid,
+                end,
+                depth,
+            });
+            tasks.push(BuildTask {
+                extent: left_extent,
+                node: left,
+                start,
+                end: mid,
+                depth,
+            });
         }
-        debug_assert!((*depth as usize) < STACK_SIZE, "BVH deeper than its traversal stack");
+        debug_assert!(
+            (*depth as usize) < STACK_SIZE,
+            "BVH deeper than its traversal stack"
+        );
 
         item_bounds.extend(build.iter().map(|item| item.bounds));
         item_ids.extend(build.iter().map(|item| item.id));
@@ -328,7 +429,9 @@ impl Bvh {
     /// input but changes with it: use it when the order does not matter (for example to count
     /// or to test for any hit) and the sort is worth saving.
     pub fn for_each_overlap(&self, bounds: &Aabb, mut f: impl FnMut(u32)) {
-        let Some(root) = self.nodes.first() else { return };
+        let Some(root) = self.nodes.first() else {
+            return;
+        };
         let q = pack_query(bounds);
         if !overlaps(root.bounds, q) {
             return;
@@ -342,7 +445,9 @@ impl Bvh {
             let first = node.first as usize;
             if node.count > 0 {
                 let end = first + node.count as usize;
-                for (&b, &id) in self.item_bounds[first..end].iter().zip(&self.item_ids[first..end])
+                for (&b, &id) in self.item_bounds[first..end]
+                    .iter()
+                    .zip(&self.item_ids[first..end])
                 {
                     if overlaps(b, q) {
                         f(id);
@@ -366,6 +471,47 @@ impl Bvh {
                     node = right;
                     continue;
                 }
+            }
+            if sp == 0 {
+                return;
+            }
+            sp -= 1;
+            node = &self.nodes[stack[sp] as usize];
+        }
+    }
+
+    #[doc(hidden)]
+    pub fn for_each_overlap_b(&self, bounds: &Aabb, mut f: impl FnMut(u32)) {
+        let Some(root) = self.nodes.first() else {
+            return;
+        };
+        let q = pack_query(bounds);
+        if !overlaps(root.bounds, q) {
+            return;
+        }
+        let mut stack = [0u32; STACK_SIZE + 2];
+        let mut sp = 0;
+        let mut node = root;
+        loop {
+            let first = node.first as usize;
+            if node.count > 0 {
+                let end = first + node.count as usize;
+                for (&b, &id) in self.item_bounds[first..end]
+                    .iter()
+                    .zip(&self.item_ids[first..end])
+                {
+                    if overlaps(b, q) {
+                        f(id);
+                    }
+                }
+            } else {
+                let (left, right) = (&self.nodes[first], &self.nodes[first + 1]);
+                let hit_left = overlaps(left.bounds, q);
+                let hit_right = overlaps(right.bounds, q);
+                stack[sp] = first as u32 + 1;
+                sp += hit_right as usize;
+                stack[sp] = first as u32;
+                sp += hit_left as usize;
             }
             if sp == 0 {
                 return;
@@ -406,24 +552,73 @@ impl Bvh {
     }
 }
 
-/// Reorders `range` (more than [`LEAF_MAX_ITEMS`] items) into two non-empty halves and returns
-/// the size of the first.
-fn split(range: &mut [BuildItem], cmin: Vec2, cmax: Vec2, depth: u32) -> usize {
-    let extent = cmax - cmin;
-    // `extent` overflows to infinity for centroids near ±f32::MAX; the median handles those.
+/// Reorders `range` (more than [`LEAF_MAX_ITEMS`] items, with extent `extent`) into two
+/// non-empty halves; returns the size of the first and the extents of both.
+fn split(range: &mut [BuildItem], extent: &Extent, depth: u32) -> (usize, Extent, Extent) {
+    let size = extent.cmax - extent.cmin;
+    // `size` overflows to infinity for centroids near ±f32::MAX; the median handles those.
     if depth < SAH_MAX_DEPTH
-        && extent.is_finite()
-        && let Some((axis, bin)) = sah_split(range, cmin, extent)
+        && size.is_finite()
+        && let Some((axis, bin)) = sah_split(range, extent.cmin, size)
     {
-        let scale = SAH_BINS as f32 / extent[axis];
-        let lo = cmin[axis];
-        let mid = partition(range, |item| bin_of(item.centroid[axis], lo, scale) <= bin);
-        // sah_split only returns splits with items on both sides, and the bin of each item is
+        let scale = bin_scale(size[axis]);
+        let lo = extent.cmin[axis];
+        let split = partition(range, |item| bin_of(item.centroid[axis], lo, scale) <= bin);
+        // sah_split only returns splits with items on both sides, and each item's bin is
         // computed by the same expression here, so both halves are non-empty.
-        debug_assert!(mid > 0 && mid < range.len());
-        return mid;
+        debug_assert!(split.0 > 0 && split.0 < range.len());
+        return split;
     }
-    median_split(range, extent)
+    let mid = median_split(range, size);
+    (mid, Extent::of(&range[..mid]), Extent::of(&range[mid..]))
+}
+
+/// Reorders `items` along a Morton (Z-order) curve through their centroids.
+///
+/// This changes no split: SAH bins and the median are order-independent. It makes the items
+/// of every node spatially coherent in memory, so the partition's branches become predictable
+/// and its reads hit cache; on 100,000 items it saves about a quarter of the build time. Keys
+/// end with the item's position, so equal codes keep their order and the sort is total.
+fn morton_sort(
+    items: &mut Vec<BuildItem>,
+    sorted: &mut Vec<BuildItem>,
+    keys: &mut Vec<u64>,
+    extent: &Extent,
+) {
+    /// Moves the low 16 bits of `v` to the even bits.
+    fn spread(v: u32) -> u32 {
+        let mut x = v & 0xFFFF;
+        x = (x | (x << 8)) & 0x00FF_00FF;
+        x = (x | (x << 4)) & 0x0F0F_0F0F;
+        x = (x | (x << 2)) & 0x3333_3333;
+        (x | (x << 1)) & 0x5555_5555
+    }
+    let size = extent.cmax - extent.cmin;
+    // 16 bits per axis; an empty or overflowing range quantizes to 0 (order unchanged).
+    let scale = |s: f32| if s > 0.0 && s.is_finite() { 65535.0 / s } else { 0.0 };
+    let scale = Vec2::new(scale(size.x), scale(size.y));
+    keys.clear();
+    keys.extend(items.iter().enumerate().map(|(i, item)| {
+        // Saturating casts keep the quantized coordinates in 0..=65535.
+        let q = (item.centroid - extent.cmin) * scale;
+        let code = spread(q.x as u32) | (spread(q.y as u32) << 1);
+        (u64::from(code) << 32) | i as u64
+    }));
+    keys.sort_unstable();
+    sorted.clear();
+    sorted.extend(keys.iter().map(|&k| items[k as u32 as usize]));
+    core::mem::swap(items, sorted);
+}
+
+/// Bins per unit of centroid coordinate along an axis of centroid range `size`; 0 for an
+/// empty range, which puts every item in bin 0 (no split on that axis).
+#[inline]
+fn bin_scale(size: f32) -> f32 {
+    if size > 0.0 {
+        SAH_BINS as f32 / size
+    } else {
+        0.0
+    }
 }
 
 /// The SAH bin of a centroid coordinate. Saturating casts keep NaN and overflow in range.
@@ -435,24 +630,27 @@ fn bin_of(c: f32, lo: f32, scale: f32) -> usize {
 /// Best binned-SAH split of `range` as `(axis, last bin of the left side)`, or `None` when no
 /// split puts items on both sides (all centroids in one bin) or every cost overflows.
 ///
-/// Cost of a split: `half_perimeter(left) * n_left + half_perimeter(right) * n_right`. Ties go
-/// to the lower axis, then the lower bin, so the choice is deterministic.
-fn sah_split(range: &[BuildItem], cmin: Vec2, extent: Vec2) -> Option<(usize, usize)> {
-    let n = range.len() as u32;
-    let mut best: Option<(usize, usize)> = None;
-    let mut best_cost = f32::INFINITY;
-    for axis in 0..2 {
-        if !(extent[axis] > 0.0) {
-            continue;
-        }
-        let scale = SAH_BINS as f32 / extent[axis];
-        let lo = cmin[axis];
-        let mut bins = [Bin { bounds: EMPTY, count: 0 }; SAH_BINS];
-        for item in range {
-            let bin = &mut bins[bin_of(item.centroid[axis], lo, scale)];
+/// Both axes are binned in one pass over the items. Cost of a split:
+/// `half_perimeter(left) * n_left + half_perimeter(right) * n_right`. Ties go to the lower
+/// axis, then the lower bin, so the choice is deterministic.
+fn sah_split(range: &[BuildItem], cmin: Vec2, size: Vec2) -> Option<(usize, usize)> {
+    let scale = [bin_scale(size.x), bin_scale(size.y)];
+    let mut bins = [[Bin {
+        bounds: EMPTY,
+        count: 0,
+    }; SAH_BINS]; 2];
+    for item in range {
+        for axis in 0..2 {
+            let bin = &mut bins[axis][bin_of(item.centroid[axis], cmin[axis], scale[axis])];
             bin.count += 1;
             bin.bounds = bin.bounds.min(item.bounds);
         }
+    }
+
+    let n = range.len() as u32;
+    let mut best = None;
+    let mut best_cost = f32::INFINITY;
+    for (axis, bins) in bins.iter().enumerate() {
         // right_cost[i]: cost of the right side made of bins i.. (only read when non-empty).
         let mut right_cost = [0.0f32; SAH_BINS];
         let (mut acc, mut count) = (EMPTY, 0u32);
@@ -480,33 +678,46 @@ fn sah_split(range: &[BuildItem], cmin: Vec2, extent: Vec2) -> Option<(usize, us
 
 /// Splits `range` at its middle item along the wider centroid axis: both halves get at most
 /// `ceil(n / 2)` items, which is what bounds the tree's depth.
-fn median_split(range: &mut [BuildItem], extent: Vec2) -> usize {
+fn median_split(range: &mut [BuildItem], size: Vec2) -> usize {
     let mid = range.len() / 2;
-    let axis = if extent.y > extent.x { 1 } else { 0 };
+    let axis = if size.y > size.x { 1 } else { 0 };
     // Identical centroids: any halving is as good, and keeping input order is deterministic.
-    if extent[axis] > 0.0 {
+    if size[axis] > 0.0 {
         // Ties broken by input index so the order is a total one.
         range.select_nth_unstable_by(mid, |a, b| {
-            a.centroid[axis].total_cmp(&b.centroid[axis]).then(a.input.cmp(&b.input))
+            a.centroid[axis]
+                .total_cmp(&b.centroid[axis])
+                .then(a.input.cmp(&b.input))
         });
     }
     mid
 }
 
-/// Moves the items satisfying `left` to the front and returns how many there are.
-fn partition(range: &mut [BuildItem], left: impl Fn(&BuildItem) -> bool) -> usize {
+/// Moves the items satisfying `is_left` to the front; returns how many there are and the
+/// extents of both sides. Every item is classified once and added to its side's extent then,
+/// so the children's bounds cost no extra pass.
+fn partition(
+    range: &mut [BuildItem],
+    is_left: impl Fn(&BuildItem) -> bool,
+) -> (usize, Extent, Extent) {
+    let (mut left, mut right) = (Extent::EMPTY, Extent::EMPTY);
     let (mut i, mut j) = (0, range.len());
     loop {
-        while i < j && left(&range[i]) {
+        while i < j && is_left(&range[i]) {
+            left.add(&range[i]);
             i += 1;
         }
-        while i < j && !left(&range[j - 1]) {
+        while i < j && !is_left(&range[j - 1]) {
+            right.add(&range[j - 1]);
             j -= 1;
         }
         if i >= j {
-            return i;
+            return (i, left, right);
         }
+        // range[i] belongs right and range[j - 1] left (so i < j - 1): swap them into place.
         range.swap(i, j - 1);
+        left.add(&range[i]);
+        right.add(&range[j - 1]);
         i += 1;
         j -= 1;
     }
@@ -543,8 +754,11 @@ mod tests {
     }
 
     fn brute(items: &[(u32, Aabb)], q: &Aabb) -> Vec<u32> {
-        let mut v: Vec<u32> =
-            items.iter().filter(|(_, b)| b.is_valid() && b.overlaps(q)).map(|&(id, _)| id).collect();
+        let mut v: Vec<u32> = items
+            .iter()
+            .filter(|(_, b)| b.is_valid() && b.overlaps(q))
+            .map(|&(id, _)| id)
+            .collect();
         v.sort_unstable();
         v
     }
@@ -563,7 +777,10 @@ mod tests {
             assert_eq!(got, brute(items, &q), "query {q:?}");
         }
         // The whole world, and the item boxes themselves (touching is an overlap).
-        let all = Aabb { min: Vec2::splat(-1e9), max: Vec2::splat(1e9) };
+        let all = Aabb {
+            min: Vec2::splat(-1e9),
+            max: Vec2::splat(1e9),
+        };
         assert_eq!(query(bvh, &all), brute(items, &all));
         for (_, b) in items.iter().take(50) {
             assert_eq!(query(bvh, b), brute(items, b));
@@ -590,7 +807,14 @@ mod tests {
 
     fn random_items(rng: &mut Rng, n: usize, world: f32) -> Vec<(u32, Aabb)> {
         // Ids scrambled so ascending id order differs from input and tree order.
-        (0..n).map(|i| ((i as u32).wrapping_mul(2_654_435_761) >> 8, rng.aabb(world, 8.0))).collect()
+        (0..n)
+            .map(|i| {
+                (
+                    (i as u32).wrapping_mul(2_654_435_761) >> 8,
+                    rng.aabb(world, 8.0),
+                )
+            })
+            .collect()
     }
 
     #[test]
@@ -620,7 +844,10 @@ mod tests {
                 let jitter = if round == 2 { world } else { 2.0 };
                 for (_, b) in items.iter_mut() {
                     let d = Vec2::new(rng.range(-jitter, jitter), rng.range(-jitter, jitter));
-                    *b = Aabb { min: b.min + d, max: b.max + d };
+                    *b = Aabb {
+                        min: b.min + d,
+                        max: b.max + d,
+                    };
                 }
                 let boxes: Vec<Aabb> = items.iter().map(|&(_, b)| b).collect();
                 bvh.refit(&boxes);
@@ -636,14 +863,21 @@ mod tests {
         let items = random_items(&mut rng, 200, 50.0);
         let mut bvh = Bvh::new();
         bvh.build(&items);
-        let q = Aabb { min: Vec2::splat(-20.0), max: Vec2::splat(20.0) };
+        let q = Aabb {
+            min: Vec2::splat(-20.0),
+            max: Vec2::splat(20.0),
+        };
         let mut out = Vec::with_capacity(1000);
         out.push(u32::MAX);
         let cap = out.capacity();
         bvh.query(&q, &mut out);
         assert_eq!(out[0], u32::MAX);
         assert_eq!(out[1..], brute(&items, &q)[..]);
-        assert_eq!(out.capacity(), cap, "no reallocation when capacity suffices");
+        assert_eq!(
+            out.capacity(),
+            cap,
+            "no reallocation when capacity suffices"
+        );
         let mut counted = 0;
         bvh.for_each_overlap(&q, |_| counted += 1);
         assert_eq!(counted, out.len() - 1);
@@ -652,7 +886,10 @@ mod tests {
     #[test]
     fn empty_tree() {
         let mut bvh = Bvh::new();
-        let q = Aabb { min: Vec2::splat(-1.0), max: Vec2::splat(1.0) };
+        let q = Aabb {
+            min: Vec2::splat(-1.0),
+            max: Vec2::splat(1.0),
+        };
         assert!(bvh.is_empty());
         assert_eq!(bvh.len(), 0);
         assert_eq!(bvh.bounds(), None);
@@ -671,18 +908,30 @@ mod tests {
 
     #[test]
     fn single_item() {
-        let b = Aabb { min: Vec2::new(1.0, 2.0), max: Vec2::new(3.0, 4.0) };
+        let b = Aabb {
+            min: Vec2::new(1.0, 2.0),
+            max: Vec2::new(3.0, 4.0),
+        };
         let mut bvh = Bvh::new();
         bvh.build(&[(42, b)]);
         assert_eq!(bvh.len(), 1);
         assert_eq!(bvh.depth(), 0);
         assert_eq!(bvh.bounds(), Some(b));
         // Touching counts, as with Aabb::overlaps.
-        let touch = Aabb { min: Vec2::new(3.0, 4.0), max: Vec2::new(5.0, 5.0) };
+        let touch = Aabb {
+            min: Vec2::new(3.0, 4.0),
+            max: Vec2::new(5.0, 5.0),
+        };
         assert_eq!(query(&bvh, &touch), vec![42]);
-        let miss = Aabb { min: Vec2::new(3.01, 0.0), max: Vec2::new(5.0, 5.0) };
+        let miss = Aabb {
+            min: Vec2::new(3.01, 0.0),
+            max: Vec2::new(5.0, 5.0),
+        };
         assert!(query(&bvh, &miss).is_empty());
-        let moved = Aabb { min: Vec2::new(10.0, 10.0), max: Vec2::new(11.0, 11.0) };
+        let moved = Aabb {
+            min: Vec2::new(10.0, 10.0),
+            max: Vec2::new(11.0, 11.0),
+        };
         bvh.refit(&[moved]);
         assert_eq!(bvh.bounds(), Some(moved));
         assert!(query(&bvh, &b).is_empty());
@@ -691,15 +940,31 @@ mod tests {
 
     #[test]
     fn identical_and_degenerate_boxes() {
-        let b = Aabb { min: Vec2::new(1.0, 1.0), max: Vec2::new(2.0, 2.0) };
+        let b = Aabb {
+            min: Vec2::new(1.0, 1.0),
+            max: Vec2::new(2.0, 2.0),
+        };
         let items: Vec<(u32, Aabb)> = (0..10_000u32).rev().map(|i| (i, b)).collect();
         let mut bvh = Bvh::new();
         bvh.build(&items);
         check_invariants(&bvh);
-        assert!(bvh.depth() <= 12, "identical boxes split by halving: {}", bvh.depth());
+        assert!(
+            bvh.depth() <= 12,
+            "identical boxes split by halving: {}",
+            bvh.depth()
+        );
         let hits = query(&bvh, &b);
         assert_eq!(hits, (0..10_000).collect::<Vec<_>>());
-        assert!(query(&bvh, &Aabb { min: Vec2::splat(3.0), max: Vec2::splat(4.0) }).is_empty());
+        assert!(
+            query(
+                &bvh,
+                &Aabb {
+                    min: Vec2::splat(3.0),
+                    max: Vec2::splat(4.0)
+                }
+            )
+            .is_empty()
+        );
 
         // Points (zero-size boxes), all on one line, plus duplicates of each.
         let mut items: Vec<(u32, Aabb)> = (0..500u32)
@@ -714,7 +979,10 @@ mod tests {
         let mut rng = Rng::new(5);
         for _ in 0..200 {
             let x = rng.range(-10.0, 260.0);
-            let q = Aabb { min: Vec2::new(x, -1.0), max: Vec2::new(x + rng.range(0.0, 5.0), 0.0) };
+            let q = Aabb {
+                min: Vec2::new(x, -1.0),
+                max: Vec2::new(x + rng.range(0.0, 5.0), 0.0),
+            };
             assert_eq!(query(&bvh, &q), brute(&items, &q));
         }
     }
@@ -726,7 +994,13 @@ mod tests {
         let items: Vec<(u32, Aabb)> = (0..2000u32)
             .map(|i| {
                 let x = 1.04f32.powi(i as i32);
-                (i, Aabb { min: Vec2::new(x, 0.0), max: Vec2::new(x * 1.01, 1.0) })
+                (
+                    i,
+                    Aabb {
+                        min: Vec2::new(x, 0.0),
+                        max: Vec2::new(x * 1.01, 1.0),
+                    },
+                )
             })
             .collect();
         let mut bvh = Bvh::new();
@@ -736,7 +1010,10 @@ mod tests {
         let mut rng = Rng::new(11);
         for _ in 0..300 {
             let lo = 1.04f32.powf(rng.range(0.0, 2000.0));
-            let q = Aabb { min: Vec2::new(lo, 0.5), max: Vec2::new(lo * 1.5, 0.5) };
+            let q = Aabb {
+                min: Vec2::new(lo, 0.5),
+                max: Vec2::new(lo * 1.5, 0.5),
+            };
             assert_eq!(query(&bvh, &q), brute(&items, &q));
         }
         // Huge but finite coordinates: centroid extents overflow, the median takes over.
@@ -744,28 +1021,51 @@ mod tests {
         let items: Vec<(u32, Aabb)> = (0..100u32)
             .map(|i| {
                 let x = if i % 2 == 0 { -big } else { big } * (1.0 - i as f32 * 1e-3);
-                (i, Aabb { min: Vec2::new(x, 0.0), max: Vec2::new(x, 1.0) })
+                (
+                    i,
+                    Aabb {
+                        min: Vec2::new(x, 0.0),
+                        max: Vec2::new(x, 1.0),
+                    },
+                )
             })
             .collect();
         bvh.build(&items);
         check_invariants(&bvh);
-        let all = Aabb { min: Vec2::splat(f32::NEG_INFINITY), max: Vec2::splat(f32::INFINITY) };
+        let all = Aabb {
+            min: Vec2::splat(f32::NEG_INFINITY),
+            max: Vec2::splat(f32::INFINITY),
+        };
         assert_eq!(query(&bvh, &all), (0..100).collect::<Vec<_>>());
     }
 
     #[test]
     fn invalid_boxes_are_skipped() {
-        let good = Aabb { min: Vec2::new(0.0, 0.0), max: Vec2::new(1.0, 1.0) };
-        let nan = Aabb { min: Vec2::new(f32::NAN, 0.0), max: Vec2::new(1.0, 1.0) };
-        let inf = Aabb { min: Vec2::new(0.0, 0.0), max: Vec2::new(f32::INFINITY, 1.0) };
-        let inverted = Aabb { min: Vec2::new(1.0, 1.0), max: Vec2::new(0.0, 0.0) };
+        let good = Aabb {
+            min: Vec2::new(0.0, 0.0),
+            max: Vec2::new(1.0, 1.0),
+        };
+        let nan = Aabb {
+            min: Vec2::new(f32::NAN, 0.0),
+            max: Vec2::new(1.0, 1.0),
+        };
+        let inf = Aabb {
+            min: Vec2::new(0.0, 0.0),
+            max: Vec2::new(f32::INFINITY, 1.0),
+        };
+        let inverted = Aabb {
+            min: Vec2::new(1.0, 1.0),
+            max: Vec2::new(0.0, 0.0),
+        };
         let items = [(0, nan), (1, good), (2, inf), (3, inverted), (4, good)];
         let mut bvh = Bvh::new();
         bvh.build(&items);
         assert_eq!(bvh.len(), 2);
         assert_eq!(bvh.bounds(), Some(good));
-        let everything =
-            Aabb { min: Vec2::splat(f32::NEG_INFINITY), max: Vec2::splat(f32::INFINITY) };
+        let everything = Aabb {
+            min: Vec2::splat(f32::NEG_INFINITY),
+            max: Vec2::splat(f32::INFINITY),
+        };
         assert_eq!(query(&bvh, &everything), vec![1, 4]);
         assert_eq!(query(&bvh, &good), vec![1, 4]);
         // A NaN query matches nothing, as Aabb::overlaps says.
@@ -796,7 +1096,10 @@ mod tests {
         bvh.build(&items);
         let shift = Vec2::splat(100.0);
         for (_, b) in items.iter_mut().take(20) {
-            *b = Aabb { min: b.min + shift, max: b.max + shift };
+            *b = Aabb {
+                min: b.min + shift,
+                max: b.max + shift,
+            };
         }
         let boxes: Vec<Aabb> = items.iter().take(20).map(|&(_, b)| b).collect();
         bvh.refit(&boxes);
@@ -859,5 +1162,135 @@ mod tests {
                 });
             }
         });
+    }
+}
+
+#[cfg(test)]
+mod perf_tmp {
+    use super::*;
+    use std::time::Instant;
+
+    struct Rng(u32);
+    impl Rng {
+        fn f(&mut self) -> f32 {
+            let mut x = self.0;
+            x ^= x << 13;
+            x ^= x >> 17;
+            x ^= x << 5;
+            self.0 = x;
+            (x >> 8) as f32 / (1u32 << 24) as f32
+        }
+        fn r(&mut self, lo: f32, hi: f32) -> f32 {
+            lo + (hi - lo) * self.f()
+        }
+    }
+
+    fn scene(n: usize) -> (Vec<(u32, Aabb)>, Vec<Aabb>) {
+        let mut rng = Rng(0x9E37_79B9 ^ n as u32);
+        let side = 10.0 * (n as f32).sqrt();
+        let items = (0..n as u32)
+            .map(|id| {
+                let p = Vec2::new(rng.r(0.0, side), rng.r(0.0, side));
+                let k = rng.f();
+                let s = if k < 0.3 {
+                    let (l, t) = (rng.r(4.0, 40.0), rng.r(0.3, 1.0));
+                    if rng.f() < 0.5 {
+                        Vec2::new(l, t)
+                    } else {
+                        Vec2::new(t, l)
+                    }
+                } else if k < 0.8 {
+                    Vec2::new(rng.r(0.5, 4.0), rng.r(0.5, 4.0))
+                } else {
+                    Vec2::new(rng.r(3.0, 15.0), rng.r(1.0, 8.0))
+                };
+                (id, Aabb { min: p, max: p + s })
+            })
+            .collect();
+        let qs = (0..10_000)
+            .map(|_| {
+                let p = Vec2::new(rng.r(0.0, side), rng.r(0.0, side));
+                let h = Vec2::splat(rng.r(0.25, 1.0));
+                let sp = if rng.f() < 0.9 {
+                    rng.r(0.0, 20.0)
+                } else {
+                    rng.r(50.0, 300.0)
+                };
+                let d = Vec2::from_angle(rng.r(0.0, 6.28)) * sp / 60.0;
+                let a = Aabb {
+                    min: p - h,
+                    max: p + h,
+                };
+                a.union(Aabb {
+                    min: a.min + d,
+                    max: a.max + d,
+                })
+            })
+            .collect();
+        (items, qs)
+    }
+
+    fn min_time(reps: usize, mut f: impl FnMut()) -> f64 {
+        let mut best = f64::MAX;
+        for _ in 0..reps {
+            let t = Instant::now();
+            f();
+            best = best.min(t.elapsed().as_secs_f64());
+        }
+        best * 1e3
+    }
+
+    #[test]
+    #[ignore]
+    fn perf_build() {
+        let (items, _) = scene(100_000);
+        let mut bvh = Bvh::new();
+        for _ in 0..40 {
+            bvh.build(&items);
+        }
+    }
+
+    #[test]
+    #[ignore]
+    fn perf_query() {
+        let (items, qs) = scene(100_000);
+        let mut bvh = Bvh::new();
+        bvh.build(&items);
+        let mut out = Vec::with_capacity(1024);
+        for _ in 0..100 {
+            for q in &qs {
+                out.clear();
+                bvh.query(q, &mut out);
+            }
+        }
+    }
+
+    #[test]
+    #[ignore]
+    fn perf() {
+        for n in [1000usize, 100_000] {
+            let (items, qs) = scene(n);
+            let mut bvh = Bvh::new();
+            let reps = if n > 10_000 { 15 } else { 300 };
+            let tb = min_time(reps, || bvh.build(&items));
+            let mut out = Vec::with_capacity(1024);
+            let tq = min_time(30, || {
+                for q in &qs {
+                    out.clear();
+                    bvh.query(q, &mut out);
+                }
+            });
+            let tq2 = min_time(30, || {
+                for q in &qs {
+                    out.clear();
+                    bvh.for_each_overlap_b(q, |id| out.push(id));
+                    out.sort_unstable();
+                }
+            });
+            println!(
+                "n={n} build {tb:.3} ms, query10k {tq:.3} ms, branchless {tq2:.3}, depth {}",
+                bvh.depth()
+            );
+        }
     }
 }

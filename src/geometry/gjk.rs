@@ -86,8 +86,14 @@ struct Simplex {
 /// The pose of B in A's frame: `inv(A) * B`.
 #[inline]
 pub(crate) fn relative_pose(a: Pose, b: Pose) -> Pose {
-    let q = Rot { c: a.q.c * b.q.c + a.q.s * b.q.s, s: a.q.c * b.q.s - a.q.s * b.q.c };
-    Pose { p: a.q.inv_rotate(b.p - a.p), q }
+    let q = Rot {
+        c: a.q.c * b.q.c + a.q.s * b.q.s,
+        s: a.q.c * b.q.s - a.q.s * b.q.c,
+    };
+    Pose {
+        p: a.q.inv_rotate(b.p - a.p),
+        q,
+    }
 }
 
 impl Simplex {
@@ -125,7 +131,10 @@ impl Simplex {
     }
 
     fn to_cache(&self) -> SimplexCache {
-        let mut c = SimplexCache { count: self.count as u8, ..Default::default() };
+        let mut c = SimplexCache {
+            count: self.count as u8,
+            ..Default::default()
+        };
         for i in 0..self.count {
             c.index_a[i] = self.v[i].index_a;
             c.index_b[i] = self.v[i].index_b;
@@ -138,7 +147,11 @@ impl Simplex {
             1 => -self.v[0].w,
             _ => {
                 let e12 = self.v[1].w - self.v[0].w;
-                if cross(e12, -self.v[0].w) > 0.0 { left_perp(e12) } else { right_perp(e12) }
+                if cross(e12, -self.v[0].w) > 0.0 {
+                    left_perp(e12)
+                } else {
+                    right_perp(e12)
+                }
             }
         }
     }

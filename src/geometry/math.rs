@@ -58,12 +58,18 @@ pub struct Pose {
 
 impl Pose {
     /// The identity pose.
-    pub const IDENTITY: Self = Self { p: Vec2::ZERO, q: Rot::IDENTITY };
+    pub const IDENTITY: Self = Self {
+        p: Vec2::ZERO,
+        q: Rot::IDENTITY,
+    };
 
     /// A pose from a translation and an angle (radians).
     #[inline]
     pub fn new(p: Vec2, angle: f32) -> Self {
-        Self { p, q: Rot::from_angle(angle) }
+        Self {
+            p,
+            q: Rot::from_angle(angle),
+        }
     }
 
     /// Maps a body-local point to the world.

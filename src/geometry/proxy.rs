@@ -45,7 +45,11 @@ impl ShapeProxy {
     pub(crate) fn from_parts(points: &[Vec2], radius: f32) -> Self {
         let mut p = [Vec2::ZERO; MAX_POLYGON_VERTICES];
         p[..points.len()].copy_from_slice(points);
-        Self { points: p, count: points.len() as u8, radius }
+        Self {
+            points: p,
+            count: points.len() as u8,
+            radius,
+        }
     }
 
     /// The core points.
@@ -102,7 +106,8 @@ impl ShapeProxy {
     /// straight line, so the box of that segment grown by `reach + radius` holds the shape.
     pub fn swept_aabb(&self, sweep: &super::sweep::Sweep) -> Aabb {
         if sweep.a0 == sweep.a1 {
-            self.aabb(sweep.pose_at(0.0)).union(self.aabb(sweep.pose_at(1.0)))
+            self.aabb(sweep.pose_at(0.0))
+                .union(self.aabb(sweep.pose_at(1.0)))
         } else {
             let reach = self.max_distance_from(sweep.local_center) + self.radius;
             Aabb::from_corners(sweep.c0, sweep.c1).expanded(reach)
@@ -126,12 +131,20 @@ impl ShapeProxy {
                 inner = inner.min(super::math::cross(e, center - a).abs() / len);
             }
         }
-        if inner.is_finite() { inner + self.radius } else { self.radius }
+        if inner.is_finite() {
+            inner + self.radius
+        } else {
+            self.radius
+        }
     }
 
     /// The largest distance from `center` to a core point (m), radius not included.
     pub fn max_distance_from(&self, center: Vec2) -> f32 {
-        self.points().iter().map(|p| p.distance_squared(center)).fold(0.0, f32::max).sqrt()
+        self.points()
+            .iter()
+            .map(|p| p.distance_squared(center))
+            .fold(0.0, f32::max)
+            .sqrt()
     }
 
     /// True when every point and the radius are finite.

@@ -147,9 +147,19 @@ pub struct BodyResult {
 }
 
 enum PairOutcome {
-    Clear { overlapping: bool },
-    Hit { fraction: f32, point: Vec2, normal: Vec2, overlapping: bool },
-    Failed { fraction: f32, failure: ToiFailure },
+    Clear {
+        overlapping: bool,
+    },
+    Hit {
+        fraction: f32,
+        point: Vec2,
+        normal: Vec2,
+        overlapping: bool,
+    },
+    Failed {
+        fraction: f32,
+        failure: ToiFailure,
+    },
 }
 
 /// Whether the contact point at the start of `sweep` moves toward the target along `normal`
@@ -176,7 +186,10 @@ fn approaching(sweep: &Sweep, point: Vec2, normal: Vec2, threshold: f32) -> bool
 fn pair_toi(body: &BodyState, sweep: &Sweep, target: &StaticItem, slop: f32) -> PairOutcome {
     let target_sweep = Sweep::stationary(Vec2::ZERO, target.position, target.angle);
     let mut input = ToiInput::new(body.proxy, *sweep, target.proxy, target_sweep);
-    input.config = ToiConfig { linear_slop: slop, target_separation: None };
+    input.config = ToiConfig {
+        linear_slop: slop,
+        target_separation: None,
+    };
     let out = time_of_impact(&input);
     match out.state {
         ToiState::Separated => PairOutcome::Clear { overlapping: false },
@@ -186,13 +199,21 @@ fn pair_toi(body: &BodyState, sweep: &Sweep, target: &StaticItem, slop: f32) -> 
             normal: out.normal,
             overlapping: false,
         },
-        ToiState::Failed(failure) => PairOutcome::Failed { fraction: out.fraction, failure },
+        ToiState::Failed(failure) => PairOutcome::Failed {
+            fraction: out.fraction,
+            failure,
+        },
         ToiState::Hit | ToiState::Overlapped => {
             let overlapping = out.separation < 0.0;
             if out.normal == Vec2::ZERO {
                 return core_fallback(body, sweep, slop, input);
             }
-            if approaching(sweep, out.point, out.normal, 0.01 * separation_tolerance(slop)) {
+            if approaching(
+                sweep,
+                out.point,
+                out.normal,
+                0.01 * separation_tolerance(slop),
+            ) {
                 return PairOutcome::Hit {
                     fraction: 0.0,
                     point: out.point,
@@ -200,8 +221,15 @@ fn pair_toi(body: &BodyState, sweep: &Sweep, target: &StaticItem, slop: f32) -> 
                     overlapping,
                 };
             }
+            // The lowered band must leave the start clearly above it. A target of
+            // `separation - tolerance` puts the start exactly on the band's upper edge, where
+            // rounding decides, and a floor above `separation - 2 tolerance` puts it inside:
+            // either way the query hits at 0 and the body is frozen although it moves apart
+            // or along. A translating body that is not approaching cannot get deeper (the
+            // distance along a line to a convex set is convex); a turning one is caught at
+            // most `3 tolerance` below where it started.
             let tolerance = separation_tolerance(slop);
-            let relaxed = (out.separation.min(slop) - tolerance).max(-0.5 * slop);
+            let relaxed = out.separation.min(slop) - 2.0 * tolerance;
             input.config.target_separation = Some(relaxed);
             let out2 = time_of_impact(&input);
             match out2.state {
@@ -209,23 +237,23 @@ fn pair_toi(body: &BodyState, sweep: &Sweep, target: &StaticItem, slop: f32) -> 
                 ToiState::Hit | ToiState::Overlapped => PairOutcome::Hit {
                     fraction: out2.fraction,
                     point: out2.point,
-                    normal: if out2.normal == Vec2::ZERO { out.normal } else { out2.normal },
+                    normal: if out2.normal == Vec2::ZERO {
+                        out.normal
+                    } else {
+                        out2.normal
+                    },
                     overlapping,
                 },
-                ToiState::Failed(failure) => {
-                    PairOutcome::Failed { fraction: out2.fraction, failure }
-                }
+                ToiState::Failed(failure) => PairOutcome::Failed {
+                    fraction: out2.fraction,
+                    failure,
+                },
             }
         }
     }
 }
 
-fn core_fallback(
-    body: &BodyState,
-    sweep: &Sweep,
-    slop: f32,
-    mut input: ToiInput,
-) -> PairOutcome {
+fn core_fallback(body: &BodyState, sweep: &Sweep, slop: f32, mut input: ToiInput) -> PairOutcome {
     input.proxy_a = ShapeProxy::from_parts(&[body.local_center], body.core_radius);
     let out = time_of_impact(&input);
     match out.state {
@@ -236,9 +264,19 @@ fn core_fallback(
             normal: out.normal,
             overlapping: true,
         },
-        ToiState::Failed(failure) => PairOutcome::Failed { fraction: out.fraction, failure },
+        ToiState::Failed(failure) => PairOutcome::Failed {
+            fraction: out.fraction,
+            failure,
+        },
         ToiState::Hit | ToiState::Overlapped => {
-            if out.normal != Vec2::ZERO && approaching(sweep, out.point, out.normal, 0.01 * separation_tolerance(slop)) {
+            if out.normal != Vec2::ZERO
+                && approaching(
+                    sweep,
+                    out.point,
+                    out.normal,
+                    0.01 * separation_tolerance(slop),
+                )
+            {
                 PairOutcome::Hit {
                     fraction: 0.0,
                     point: out.point,
@@ -331,12 +369,19 @@ pub fn solve_body(
         let mut best: Option<(f32, u32, Vec2, Vec2)> = None;
         let mut failed: Option<(f32, ToiFailure)> = None;
         for &index in list {
-            let Some(target) = statics.items.get(index as usize) else { continue };
+            let Some(target) = statics.items.get(index as usize) else {
+                continue;
+            };
             match pair_toi(body, &sweep, target, slop) {
                 PairOutcome::Clear { overlapping } => {
                     result.started_overlapping |= overlapping && first;
                 }
-                PairOutcome::Hit { fraction, point, normal, overlapping } => {
+                PairOutcome::Hit {
+                    fraction,
+                    point,
+                    normal,
+                    overlapping,
+                } => {
                     result.started_overlapping |= overlapping && first;
                     if best.is_none_or(|b| fraction < b.0) {
                         best = Some((fraction, index, point, normal));

@@ -58,19 +58,28 @@ impl Aabb {
     /// The box spanning two corners in any order.
     #[inline]
     pub fn from_corners(a: Vec2, b: Vec2) -> Self {
-        Self { min: a.min(b), max: a.max(b) }
+        Self {
+            min: a.min(b),
+            max: a.max(b),
+        }
     }
 
     /// The smallest box holding both.
     #[inline]
     pub fn union(self, other: Self) -> Self {
-        Self { min: self.min.min(other.min), max: self.max.max(other.max) }
+        Self {
+            min: self.min.min(other.min),
+            max: self.max.max(other.max),
+        }
     }
 
     /// This box grown by `margin` on every side.
     #[inline]
     pub fn expanded(self, margin: f32) -> Self {
-        Self { min: self.min - Vec2::splat(margin), max: self.max + Vec2::splat(margin) }
+        Self {
+            min: self.min - Vec2::splat(margin),
+            max: self.max + Vec2::splat(margin),
+        }
     }
 
     /// True when the two boxes overlap or touch.
@@ -123,7 +132,11 @@ pub struct MassProperties {
 }
 
 fn check_finite(v: Vec2) -> Result<Vec2, ShapeError> {
-    if v.is_finite() { Ok(v) } else { Err(ShapeError::NonFinite) }
+    if v.is_finite() {
+        Ok(v)
+    } else {
+        Err(ShapeError::NonFinite)
+    }
 }
 
 fn check_size(x: f32) -> Result<f32, ShapeError> {
@@ -155,7 +168,9 @@ pub struct Circle {
 impl Circle {
     /// A disc of `radius` metres.
     pub fn new(radius: f32) -> Result<Self, ShapeError> {
-        Ok(Self { radius: check_size(radius)? })
+        Ok(Self {
+            radius: check_size(radius)?,
+        })
     }
 
     /// The radius (m).
@@ -178,7 +193,11 @@ impl Capsule {
         let center1 = check_finite(center1)?;
         let center2 = check_finite(center2)?;
         check_size(center1.distance(center2))?;
-        Ok(Self { center1, center2, radius: check_size(radius)? })
+        Ok(Self {
+            center1,
+            center2,
+            radius: check_size(radius)?,
+        })
     }
 
     /// A capsule along the x axis, centred on the origin, with the given half length (centre to
@@ -318,7 +337,12 @@ impl Polygon {
         let hx = check_size(half_width)?;
         let hy = check_size(half_height)?;
         Self::from_ccw(
-            &[Vec2::new(-hx, -hy), Vec2::new(hx, -hy), Vec2::new(hx, hy), Vec2::new(-hx, hy)],
+            &[
+                Vec2::new(-hx, -hy),
+                Vec2::new(hx, -hy),
+                Vec2::new(hx, hy),
+                Vec2::new(-hx, hy),
+            ],
             radius,
         )
     }
@@ -350,7 +374,12 @@ impl Polygon {
             let e = hull[(i + 1) % n] - hull[i];
             normals[i] = right_perp(e).normalize_or_zero();
         }
-        let poly = Self { vertices, normals, count: n as u8, radius };
+        let poly = Self {
+            vertices,
+            normals,
+            count: n as u8,
+            radius,
+        };
         // Reject polygons too thin to carry any area at this precision.
         let mut width = f32::INFINITY;
         for i in 0..n {
@@ -402,7 +431,9 @@ fn hull_tolerance(points: &[Vec2]) -> f32 {
     }
     // Scale by both the extent and the distance from the origin: far from the origin the
     // coordinates themselves carry the rounding.
-    let extent = (hi - lo).max_element().max(lo.abs().max(hi.abs()).max_element() * 1.0e-2);
+    let extent = (hi - lo)
+        .max_element()
+        .max(lo.abs().max(hi.abs()).max_element() * 1.0e-2);
     HULL_RELATIVE_TOLERANCE * extent
 }
 
@@ -510,7 +541,11 @@ impl Shape {
         match self {
             Self::Circle(c) => {
                 let mass = density * core::f32::consts::PI * c.radius * c.radius;
-                MassProperties { mass, center: Vec2::ZERO, inertia: 0.5 * mass * c.radius * c.radius }
+                MassProperties {
+                    mass,
+                    center: Vec2::ZERO,
+                    inertia: 0.5 * mass * c.radius * c.radius,
+                }
             }
             Self::Capsule(c) => capsule_mass(c.center1, c.center2, c.radius, density),
             Self::Segment(s) => {
@@ -546,7 +581,11 @@ fn capsule_mass(p1: Vec2, p2: Vec2, r: f32, density: f32) -> MassProperties {
     let h = 0.5 * ll;
     let circle_inertia = circle_mass * (0.5 * r * r + h * h + 2.0 * h * lc);
     let box_inertia = box_mass * (4.0 * r * r + ll * ll) / 12.0;
-    MassProperties { mass, center: 0.5 * (p1 + p2), inertia: circle_inertia + box_inertia }
+    MassProperties {
+        mass,
+        center: 0.5 * (p1 + p2),
+        inertia: circle_inertia + box_inertia,
+    }
 }
 
 /// Polygon mass after Box2D's `b2ComputePolygonMass`: a fan of triangles from the first vertex;
@@ -582,5 +621,9 @@ fn polygon_mass(p: &Polygon, density: f32) -> MassProperties {
     }
     let local = center / area;
     let mass = density * area;
-    MassProperties { mass, center: r + local, inertia: density * inertia - mass * local.dot(local) }
+    MassProperties {
+        mass,
+        center: r + local,
+        inertia: density * inertia - mass * local.dot(local),
+    }
 }

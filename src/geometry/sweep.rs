@@ -44,14 +44,26 @@ pub struct Sweep {
 impl Sweep {
     /// A sweep from the centre-of-mass positions and angles at both ends.
     pub fn new(local_center: Vec2, c0: Vec2, a0: f32, c1: Vec2, a1: f32) -> Self {
-        Self { local_center, c0, c1, a0, a1 }
+        Self {
+            local_center,
+            c0,
+            c1,
+            a0,
+            a1,
+        }
     }
 
     /// A sweep from the body-origin positions and angles at both ends.
     pub fn from_origins(local_center: Vec2, p0: Vec2, a0: f32, p1: Vec2, a1: f32) -> Self {
         let c0 = p0 + Rot::from_angle(a0).rotate(local_center);
         let c1 = p1 + Rot::from_angle(a1).rotate(local_center);
-        Self { local_center, c0, c1, a0, a1 }
+        Self {
+            local_center,
+            c0,
+            c1,
+            a0,
+            a1,
+        }
     }
 
     /// A body at rest at `pose` (origin position and angle).
@@ -75,7 +87,10 @@ impl Sweep {
     #[inline]
     pub fn pose_at(&self, t: f32) -> Pose {
         let q = Rot::from_angle(self.angle_at(t));
-        Pose { p: self.center_at(t) - q.rotate(self.local_center), q }
+        Pose {
+            p: self.center_at(t) - q.rotate(self.local_center),
+            q,
+        }
     }
 
     /// The body origin at fraction `t`.

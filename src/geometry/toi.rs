@@ -78,7 +78,10 @@ pub struct ToiConfig {
 
 impl Default for ToiConfig {
     fn default() -> Self {
-        Self { linear_slop: LINEAR_SLOP, target_separation: None }
+        Self {
+            linear_slop: LINEAR_SLOP,
+            target_separation: None,
+        }
     }
 }
 
@@ -102,7 +105,14 @@ pub struct ToiInput {
 impl ToiInput {
     /// An input over the whole step with the default slop.
     pub fn new(proxy_a: ShapeProxy, sweep_a: Sweep, proxy_b: ShapeProxy, sweep_b: Sweep) -> Self {
-        Self { proxy_a, proxy_b, sweep_a, sweep_b, max_fraction: 1.0, config: ToiConfig::default() }
+        Self {
+            proxy_a,
+            proxy_b,
+            sweep_a,
+            sweep_b,
+            max_fraction: 1.0,
+            config: ToiConfig::default(),
+        }
     }
 }
 
@@ -210,8 +220,15 @@ impl Motion {
 
     #[inline]
     fn pose(&self, t: f32) -> Pose {
-        let q = if self.w == 0.0 { self.q0 } else { Rot::from_angle(self.a0 + t * self.w) };
-        Pose { p: self.center(t) - q.rotate(self.local_center), q }
+        let q = if self.w == 0.0 {
+            self.q0
+        } else {
+            Rot::from_angle(self.a0 + t * self.w)
+        };
+        Pose {
+            p: self.center(t) - q.rotate(self.local_center),
+            q,
+        }
     }
 }
 
@@ -381,18 +398,22 @@ impl<'a> SeparationFunction<'a> {
         }
     }
 
-    /// A Lipschitz constant of `S` on `[t1, t2]` (metres per unit of step fraction); the
-    /// derivation is in the module documentation.
-    fn lipschitz(&self, t1: f32, t2: f32, xf_a1: Pose, xf_b1: Pose) -> f32 {
+    /// Bounds on how fast `S` can change on `[t1, t2]`: a Lipschitz constant (metres per unit
+    /// of step fraction) and a curvature bound (a bound on `|f''|` for every smooth piece
+    /// `f` of which `S` is the minimum). The derivation is in the module documentation.
+    fn motion_bounds(&self, t1: f32, t2: f32, xf_a1: Pose, xf_b1: Pose) -> MotionBounds {
         let ma = self.motion_a;
         let mb = self.motion_b;
         let v_rel = mb.v - ma.v;
         let wa = ma.w.abs();
         let wb = mb.w.abs();
         match self.kind {
-            SeparationKind::Points => {
-                self.axis.dot(v_rel).abs() + wa * ma.reach + wb * mb.reach
-            }
+            SeparationKind::Points => MotionBounds {
+                // f = n·(b_j(t) - a_i(t)), n fixed: f' = n·(vB - vA) + rotation terms,
+                // f'' = n·(b_j'' - a_i''), |b_j''| = wB² |r_j|.
+                lipschitz: self.axis.dot(v_rel).abs() + wa * ma.reach + wb * mb.reach,
+                curvature: wa * wa * ma.reach + wb * wb * mb.reach,
+            },
             SeparationKind::FaceA | SeparationKind::FaceB => {
                 let d = (mb.center(t1) - ma.center(t1))
                     .length()
@@ -403,12 +424,43 @@ impl<'a> SeparationFunction<'a> {
                 } else {
                     (wb, wa, ma.reach, xf_b1.q.rotate(self.axis))
                 };
-                w_face * (d + reach_other)
-                    + n1.dot(v_rel).abs()
-                    + v_rel.length() * w_face * (t2 - t1)
-                    + w_other * reach_other
+                // f = n(t)·u(t), u = b_j - c_face, |u| <= D + R_other,
+                // |u'| <= |v_rel| + w_other R_other, |u''| <= w_other² R_other, |n'| = w_face,
+                // |n''| = w_face²: f'' = n''·u + 2 n'·u' + n·u''.
+                let speed = v_rel.length();
+                MotionBounds {
+                    lipschitz: w_face * (d + reach_other)
+                        + n1.dot(v_rel).abs()
+                        + speed * w_face * (t2 - t1)
+                        + w_other * reach_other,
+                    curvature: w_face * w_face * (d + reach_other)
+                        + 2.0 * w_face * (speed + w_other * reach_other)
+                        + w_other * w_other * reach_other,
+                }
             }
         }
+    }
+}
+
+/// How fast the lower bound `S` can change over an interval.
+#[derive(Clone, Copy, Debug)]
+struct MotionBounds {
+    lipschitz: f32,
+    curvature: f32,
+}
+
+impl MotionBounds {
+    /// A lower bound of `S` on `[a, b]` from its values at both ends: the better of the
+    /// Lipschitz bound `(sa + sb - L (b - a)) / 2` and the curvature bound
+    /// `min(sa, sb) - K (b - a)² / 8`. The second holds because each smooth piece `f_j` lies
+    /// above its chord minus `K h² / 8`, and each chord lies above the chord of `S = min f_j`.
+    /// It shrinks with the square of the interval, so bisection converges fast even for a
+    /// body turning many times per step.
+    #[inline]
+    fn lower(&self, sa: f32, sb: f32, h: f32) -> f32 {
+        let first = 0.5 * (sa + sb - self.lipschitz * h);
+        let second = sa.min(sb) - 0.125 * self.curvature * h * h;
+        first.max(second)
     }
 }
 
@@ -456,22 +508,24 @@ fn find_root(
 }
 
 /// The end of the longest prefix of `[t1, t2]` on which `S >= level` is proven, given `S` at
-/// both ends and a Lipschitz constant. Spends at most [`CERTIFY_MAX_EVALUATIONS`] evaluations
-/// of `S` on bisection. Always returns more than `t1` when `s1 > level` and `lipschitz` is
-/// finite.
+/// both ends and its motion bounds, and the end of the first sub-interval that could not be
+/// proven (where the search should look next; `t2` when all is proven). Spends at most
+/// [`CERTIFY_MAX_EVALUATIONS`] evaluations of `S` on bisection. The prefix always ends after
+/// `t1` when `s1 > level` and the bounds are finite.
 fn certify(
     f: &SeparationFunction<'_>,
     t1: f32,
     s1: f32,
     t2: f32,
     s2: f32,
-    lipschitz: f32,
+    bounds: MotionBounds,
     level: f32,
     evaluations: &mut u32,
-) -> f32 {
-    let covered = |sa: f32, sb: f32, len: f32| 0.5 * (sa + sb - lipschitz * len) >= level;
+) -> (f32, f32) {
+    let lipschitz = bounds.lipschitz;
+    let covered = |sa: f32, sb: f32, len: f32| bounds.lower(sa, sb, len) >= level;
     if covered(s1, s2, t2 - t1) {
-        return t2;
+        return (t2, t2);
     }
     // Depth-first, earliest sub-interval first, so the certified prefix grows left to right.
     const MAX_DEPTH: u32 = 10;
@@ -490,9 +544,9 @@ fn certify(
             // Stop here: [t1, a] is certified; extend it one-sidedly from `a`.
             *evaluations += spent;
             if sa <= level || lipschitz <= 0.0 {
-                return a;
+                return (a, b);
             }
-            return (a + (sa - level) / lipschitz).min(b);
+            return ((a + (sa - level) / lipschitz).min(b), b);
         }
         let m = 0.5 * (a + b);
         let sm = f.lower_bound(m);
@@ -502,7 +556,7 @@ fn certify(
         len += 2;
     }
     *evaluations += spent;
-    t2
+    (t2, t2)
 }
 
 fn validate(input: &ToiInput) -> Result<(), ToiFailure> {
@@ -515,7 +569,10 @@ fn validate(input: &ToiInput) -> Result<(), ToiFailure> {
     if slop <= 0.0 || !(0.0..=1.0).contains(&t_max) {
         return Err(ToiFailure::InvalidInput);
     }
-    for (sweep, proxy) in [(&input.sweep_a, &input.proxy_a), (&input.sweep_b, &input.proxy_b)] {
+    for (sweep, proxy) in [
+        (&input.sweep_a, &input.proxy_a),
+        (&input.sweep_b, &input.proxy_b),
+    ] {
         if !sweep.is_finite() || !proxy.is_finite() {
             return Err(ToiFailure::NonFinite);
         }
@@ -572,7 +629,10 @@ pub fn time_of_impact(input: &ToiInput) -> ToiOutput {
     // Targets on the core distance: the surfaces end `slop ± slop/4` apart. A lowered target
     // never asks the cores to come closer than the tolerance: GJK measures no penetration.
     let tolerance = separation_tolerance(slop);
-    let target_surface = input.config.target_separation.unwrap_or(target_separation(slop));
+    let target_surface = input
+        .config
+        .target_separation
+        .unwrap_or(target_separation(slop));
     let target = (total_radius + target_surface).max(2.0 * tolerance);
     // Skipped intervals must keep the surfaces at least `target - tolerance` apart: then every
     // time the advance stops at is still outside the hit band or inside it, never past it, and
@@ -582,12 +642,21 @@ pub fn time_of_impact(input: &ToiInput) -> ToiOutput {
     let mut out = ToiOutput::failed(ToiFailure::IterationLimit, 0.0);
     let mut cache = SimplexCache::default();
     let mut t1 = 0.0f32;
+    // The end of the current search window: the whole interval at first, a sub-interval after
+    // a certification that could prove only a prefix.
+    let mut t_end = t_max;
 
     loop {
         let xf_a = motion_a.pose(t1);
         let xf_b = motion_b.pose(t1);
         let distance = shape_distance(
-            &DistanceInput { proxy_a, proxy_b, pose_a: xf_a, pose_b: xf_b, use_radii: false },
+            &DistanceInput {
+                proxy_a,
+                proxy_b,
+                pose_a: xf_a,
+                pose_b: xf_b,
+                use_radii: false,
+            },
             &mut cache,
         );
         out.iterations += 1;
@@ -623,19 +692,18 @@ pub fn time_of_impact(input: &ToiInput) -> ToiOutput {
         let f = SeparationFunction::new(&cache, proxy_a, &motion_a, proxy_b, &motion_b, xf_a, xf_b);
         let s1_bound = f.min_separation_at(xf_a, xf_b).3;
 
-        // Push-back: resolve the deepest points, at most once per vertex.
-        let mut t2 = t_max;
+        // Push-back on the window [t1, t_end]: resolve the deepest points, at most once per
+        // vertex.
+        let mut t2 = t_end;
         let mut s2_bound = f32::NAN;
+        let mut s2_witness = f32::NAN;
         let mut advance = true;
-        let mut clear_at_end = false;
         for _ in 0..MAX_POLYGON_VERTICES {
             let (ia, ib, s2, bound) = f.min_separation(t2);
             s2_bound = bound;
-            if s2 > target + tolerance {
-                clear_at_end = t2 >= t_max;
-                break;
-            }
+            s2_witness = s2;
             if s2 > target - tolerance {
+                // Apart at t2 along this axis (beyond the band, or inside it at a root).
                 break;
             }
             let s1 = f.evaluate(ia, ib, t1);
@@ -666,32 +734,45 @@ pub fn time_of_impact(input: &ToiInput) -> ToiOutput {
             s2_bound = f.lower_bound(t2);
         }
 
-        let lipschitz = f.lipschitz(t1, if advance { t2 } else { t_max }, xf_a, xf_b);
-        let reached = if advance {
+        // Certify the interval the advance would skip.
+        let bounds = f.motion_bounds(t1, if advance { t2 } else { t_end }, xf_a, xf_b);
+        let (reached, unproven_end) = if advance {
             certify(
                 &f,
                 t1,
                 s1_bound,
                 t2,
                 s2_bound,
-                lipschitz,
+                bounds,
                 contact_level,
                 &mut out.certify_evaluations,
             )
-        } else if lipschitz > 0.0 && s1_bound > contact_level {
-            (t1 + (s1_bound - contact_level) / lipschitz).min(t_max)
+        } else if bounds.lipschitz > 0.0 && s1_bound > contact_level {
+            (
+                (t1 + (s1_bound - contact_level) / bounds.lipschitz).min(t_end),
+                t_end,
+            )
         } else {
-            t1
+            (t1, t_end)
         };
         if reached <= t1 {
             // Nothing could be certified: f32 has run out of resolution here.
             out.state = ToiState::Failed(ToiFailure::RootFinder);
             return out;
         }
-        if advance && reached >= t2 && clear_at_end {
-            out.state = ToiState::Separated;
-            out.fraction = t_max;
-            return out;
+        if reached >= t_end {
+            if t_end >= t_max && !(s2_witness <= target + tolerance) {
+                out.state = ToiState::Separated;
+                out.fraction = t_max;
+                return out;
+            }
+            // The window is clear: widen it to the rest of the interval.
+            t_end = t_max;
+        } else if reached < t2 {
+            // Only a prefix is proven: look next in the window that could not be, where a
+            // fresh separation function (and its root finder) can resolve what the bounds
+            // could not.
+            t_end = unproven_end.max(reached);
         }
         t1 = reached;
     }

@@ -148,7 +148,11 @@ pub fn spawn_arena(world: &mut World, config: &ArenaConfig) -> Arena {
             _ => Collider::circle(rng.range(0.2, 1.0)),
         }
         .expect("obstacle size is valid");
-        let angle = if i % 3 == 1 { rng.range(-0.8, 0.8) } else { rng.range(-3.1, 3.1) };
+        let angle = if i % 3 == 1 {
+            rng.range(-0.8, 0.8)
+        } else {
+            rng.range(-3.1, 3.1)
+        };
         add_static(world, collider, position, angle);
     }
 
@@ -187,8 +191,10 @@ pub fn spawn_arena(world: &mut World, config: &ArenaConfig) -> Arena {
         let spin = rng.range(-config.max_turns_per_step, config.max_turns_per_step)
             * core::f32::consts::TAU
             / config.timestep;
-        let velocity =
-            Velocity { linear: speed * Vec2::new(direction.cos(), direction.sin()), angular: spin };
+        let velocity = Velocity {
+            linear: speed * Vec2::new(direction.cos(), direction.sin()),
+            angular: spin,
+        };
         let transform = Transform::from_xyz(pose.p.x, pose.p.y, 0.0)
             .with_rotation(Quat::from_rotation_z(pose.q.angle()));
         let mass = collider.mass_properties(1.0);
@@ -200,13 +206,19 @@ pub fn spawn_arena(world: &mut World, config: &ArenaConfig) -> Arena {
                 transform,
                 Restitution(rng.range(0.0, 1.0)),
                 Friction(rng.range(0.0, 0.5)),
-                BodyMass { mass: mass.mass, inertia: mass.inertia },
+                BodyMass {
+                    mass: mass.mass,
+                    inertia: mass.inertia,
+                },
             ))
             .id();
         bodies.push(entity);
     }
     Arena {
-        interior: Aabb { min: Vec2::splat(-h), max: Vec2::splat(h) },
+        interior: Aabb {
+            min: Vec2::splat(-h),
+            max: Vec2::splat(h),
+        },
         bodies,
         statics,
     }
@@ -216,7 +228,8 @@ pub fn spawn_arena(world: &mut World, config: &ArenaConfig) -> Arena {
 /// nothing overlaps. Brute force over bounding-box-overlapping pairs, independent of the
 /// plugin's broad phase.
 pub fn deepest_penetration(world: &mut World) -> (f32, Option<(Entity, Entity)>) {
-    let mut statics = world.query_filtered::<(Entity, &Collider, &Transform), With<StaticCollider>>();
+    let mut statics =
+        world.query_filtered::<(Entity, &Collider, &Transform), With<StaticCollider>>();
     let targets: Vec<(Entity, ShapeProxy, Pose, Aabb)> = statics
         .iter(world)
         .map(|(e, c, t)| {
@@ -246,7 +259,11 @@ pub fn deepest_penetration(world: &mut World) -> (f32, Option<(Entity, Entity)>)
                 &mut Default::default(),
             );
             // Cores overlapping: deeper than any slop; report the body's size as the depth.
-            let depth = if d.simplex_count == 3 { f32::INFINITY } else { -d.distance };
+            let depth = if d.simplex_count == 3 {
+                f32::INFINITY
+            } else {
+                -d.distance
+            };
             if depth > deepest {
                 deepest = depth;
                 pair = Some((entity, *target));

@@ -38,7 +38,11 @@ impl Collider {
     /// A collider from a validated shape, centred on the entity origin.
     pub fn new(shape: impl Into<Shape>) -> Self {
         let shape = shape.into();
-        Self { shape, offset: Vec2::ZERO, proxy: shape.proxy() }
+        Self {
+            shape,
+            offset: Vec2::ZERO,
+            proxy: shape.proxy(),
+        }
     }
 
     /// A disc of `radius` metres.
@@ -72,8 +76,13 @@ impl Collider {
             return Err(ShapeError::NonFinite);
         }
         self.offset = offset;
-        let points: smallvec::SmallVec<[Vec2; 8]> =
-            self.shape.proxy().points().iter().map(|p| *p + offset).collect();
+        let points: smallvec::SmallVec<[Vec2; 8]> = self
+            .shape
+            .proxy()
+            .points()
+            .iter()
+            .map(|p| *p + offset)
+            .collect();
         self.proxy = ShapeProxy::new(&points, self.proxy.radius)?;
         Ok(self)
     }

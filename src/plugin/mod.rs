@@ -61,7 +61,10 @@ impl CcdPlugin {
     /// `schedule`. Both must run once per step, `start_schedule` before the user's movement
     /// and `schedule` after it.
     pub fn new(start_schedule: impl ScheduleLabel, schedule: impl ScheduleLabel) -> Self {
-        Self { start_schedule: start_schedule.intern(), schedule: schedule.intern() }
+        Self {
+            start_schedule: start_schedule.intern(),
+            schedule: schedule.intern(),
+        }
     }
 }
 
@@ -185,7 +188,12 @@ pub struct CcdConfig {
 
 impl Default for CcdConfig {
     fn default() -> Self {
-        Self { resolution: Resolution::default(), linear_slop: LINEAR_SLOP, timestep: None, parallel: true }
+        Self {
+            resolution: Resolution::default(),
+            linear_slop: LINEAR_SLOP,
+            timestep: None,
+            parallel: true,
+        }
     }
 }
 

@@ -152,10 +152,15 @@ pub(crate) fn update_statics(
     let mut list: Vec<(Entity, StaticItem)> = statics
         .iter()
         .filter_map(|(entity, collider, transform)| match pose_of(transform) {
-            Some((position, angle))
-                if position.abs().max_element() <= MAX_WORLD_COORDINATE =>
-            {
-                Some((entity, StaticItem { proxy: *collider.proxy(), position, angle }))
+            Some((position, angle)) if position.abs().max_element() <= MAX_WORLD_COORDINATE => {
+                Some((
+                    entity,
+                    StaticItem {
+                        proxy: *collider.proxy(),
+                        position,
+                        angle,
+                    },
+                ))
             }
             _ => {
                 log::warn!("bevy_ccd: static {entity} has a non-finite or huge Transform; ignored");
@@ -166,8 +171,12 @@ pub(crate) fn update_statics(
     list.sort_by_key(|(entity, _)| *entity);
     let workspace = workspace.as_mut();
     workspace.static_entities.clear();
-    workspace.static_entities.extend(list.iter().map(|(e, _)| *e));
-    workspace.statics.rebuild(list.into_iter().map(|(_, item)| item));
+    workspace
+        .static_entities
+        .extend(list.iter().map(|(e, _)| *e));
+    workspace
+        .statics
+        .rebuild(list.into_iter().map(|(_, item)| item));
     workspace.statics_ready = true;
 }
 
@@ -193,7 +202,11 @@ fn set_error(toi: &mut TimeOfImpact, entity: Entity, error: CcdError) {
     if toi.error != Some(error) {
         log::warn!("bevy_ccd: body {entity} not swept this step: {error:?}; left where it is");
     }
-    *toi = TimeOfImpact { status: CcdStatus::Error, error: Some(error), ..Default::default() };
+    *toi = TimeOfImpact {
+        status: CcdStatus::Error,
+        error: Some(error),
+        ..Default::default()
+    };
 }
 
 /// [`super::CcdSystems::BroadPhase`], second half: gather every enabled body with valid data
@@ -240,12 +253,16 @@ pub(crate) fn gather_bodies(
             set_error(&mut toi, entity, CcdError::NonFiniteTransform);
             continue;
         }
-        let big = [motion.c0, motion.c1].iter().map(|c| c.abs().max_element()).fold(0.0, f32::max);
+        let big = [motion.c0, motion.c1]
+            .iter()
+            .map(|c| c.abs().max_element())
+            .fold(0.0, f32::max);
         if big > MAX_WORLD_COORDINATE {
             set_error(&mut toi, entity, CcdError::CoordinatesTooLarge);
             continue;
         }
-        let (body_mass, inertia) = mass.map_or((props.mass, props.inertia), |m| (m.mass, m.inertia));
+        let (body_mass, inertia) =
+            mass.map_or((props.mass, props.inertia), |m| (m.mass, m.inertia));
         let velocity = velocity.map(|v| (v.linear, v.angular));
         let restitution = restitution.map_or(0.0, |r| r.0);
         let friction = friction.map_or(0.0, |f| f.0);
@@ -279,7 +296,11 @@ pub(crate) fn gather_bodies(
         });
     }
     workspace.bodies.sort_by_key(|b| b.entity);
-    workspace.settings = Some(SolveSettings { mode, linear_slop: config.linear_slop, dt });
+    workspace.settings = Some(SolveSettings {
+        mode,
+        linear_slop: config.linear_slop,
+        dt,
+    });
 
     let statics = &workspace.statics;
     let margin = config.linear_slop;
@@ -295,7 +316,9 @@ pub(crate) fn gather_bodies(
     if config.parallel && workspace.bodies.len() > 64 {
         let pool = ComputeTaskPool::get_or_init(TaskPool::default);
         let chunk = chunk_size(workspace.bodies.len(), pool.thread_num());
-        workspace.bodies.par_chunk_map_mut(pool, chunk, |_, c| query(c));
+        workspace
+            .bodies
+            .par_chunk_map_mut(pool, chunk, |_, c| query(c));
     } else {
         query(&mut workspace.bodies);
     }
@@ -312,7 +335,9 @@ fn chunk_size(count: usize, threads: usize) -> usize {
 pub(crate) fn solve_bodies(config: Res<CcdConfig>, mut workspace: ResMut<CcdWorkspace>) {
     let workspace = workspace.as_mut();
     workspace.results.clear();
-    let Some(settings) = workspace.settings else { return };
+    let Some(settings) = workspace.settings else {
+        return;
+    };
     let statics = &workspace.statics;
     let solve = |chunk: &[BodyEntry]| {
         let mut scratch = Vec::new();
@@ -337,7 +362,12 @@ pub(crate) fn solve_bodies(config: Res<CcdConfig>, mut workspace: ResMut<CcdWork
 pub(crate) fn write_back(
     workspace: Res<CcdWorkspace>,
     mut bodies: Query<
-        (&mut Transform, &mut Sweep, Option<&mut Velocity>, &mut TimeOfImpact),
+        (
+            &mut Transform,
+            &mut Sweep,
+            Option<&mut Velocity>,
+            &mut TimeOfImpact,
+        ),
         Without<StaticCollider>,
     >,
     mut impacts: MessageWriter<CcdImpact>,

@@ -33,7 +33,7 @@ use core::time::Duration;
 
 use bevy_app::prelude::*;
 use bevy_ecs::prelude::*;
-use bevy_time::{Fixed, Time, TimePlugin, TimeUpdateStrategy};
+use bevy_time::{Fixed, Real, Time, TimePlugin, TimeUpdateStrategy};
 use bevy_transform::components::Transform;
 use glam::{Quat, Vec3};
 
@@ -46,8 +46,16 @@ use crate::geometry::{Aabb, Pose};
 pub fn headless_app(timestep: f64) -> App {
     let mut app = App::new();
     app.add_plugins((TimePlugin, CcdPlugin::default()));
-    app.insert_resource(Time::<Fixed>::from_duration(Duration::from_secs_f64(timestep)));
+    app.insert_resource(Time::<Fixed>::from_duration(Duration::from_secs_f64(
+        timestep,
+    )));
     app.insert_resource(TimeUpdateStrategy::FixedTimesteps(1));
+    // `Time<Real>` ignores its first update (it only records the instant), which would make
+    // the first `update` run no fixed step. Record the start now so that every update,
+    // the first included, advances by one timestep.
+    app.world_mut()
+        .resource_mut::<Time<Real>>()
+        .update_with_duration(Duration::ZERO);
     app
 }
 

@@ -59,7 +59,10 @@ pub struct Case {
 pub fn load_cases() -> Vec<Case> {
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/toi-cases.jsonl");
     let text = std::fs::read_to_string(path).expect("oracle cases present in tests/data");
-    text.lines().filter(|l| !l.trim().is_empty()).map(|l| serde_json::from_str(l).unwrap()).collect()
+    text.lines()
+        .filter(|l| !l.trim().is_empty())
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect()
 }
 
 pub fn v(p: [f32; 2]) -> Vec2 {
@@ -75,13 +78,24 @@ impl ShapeJson {
 
 impl SweepJson {
     pub fn sweep(&self) -> Sweep {
-        Sweep::new(v(self.local_center), v(self.c0), self.a0, v(self.c1), self.a1)
+        Sweep::new(
+            v(self.local_center),
+            v(self.c0),
+            self.a0,
+            v(self.c1),
+            self.a1,
+        )
     }
 }
 
 impl Case {
     pub fn input(&self) -> ToiInput {
-        ToiInput::new(self.a.proxy(), self.sweep_a.sweep(), self.b.proxy(), self.sweep_b.sweep())
+        ToiInput::new(
+            self.a.proxy(),
+            self.sweep_a.sweep(),
+            self.b.proxy(),
+            self.sweep_b.sweep(),
+        )
     }
 
     /// World points of a shape at `t` under the angle model, in f64.
@@ -115,7 +129,11 @@ fn seg_point(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
     let ab = [b[0] - a[0], b[1] - a[1]];
     let ap = [p[0] - a[0], p[1] - a[1]];
     let l2 = ab[0] * ab[0] + ab[1] * ab[1];
-    let s = if l2 > 0.0 { ((ap[0] * ab[0] + ap[1] * ab[1]) / l2).clamp(0.0, 1.0) } else { 0.0 };
+    let s = if l2 > 0.0 {
+        ((ap[0] * ab[0] + ap[1] * ab[1]) / l2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
     let d = [ap[0] - s * ab[0], ap[1] - s * ab[1]];
     (d[0] * d[0] + d[1] * d[1]).sqrt()
 }
@@ -151,7 +169,11 @@ pub fn core_distance(a: &[[f64; 2]], b: &[[f64; 2]]) -> f64 {
     if !dirs.is_empty() {
         for n in &dirs {
             let proj = |s: &[[f64; 2]]| {
-                s.iter().map(|p| p[0] * n[0] + p[1] * n[1]).fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), x| (lo.min(x), hi.max(x)))
+                s.iter()
+                    .map(|p| p[0] * n[0] + p[1] * n[1])
+                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), x| {
+                        (lo.min(x), hi.max(x))
+                    })
             };
             let (alo, ahi) = proj(a);
             let (blo, bhi) = proj(b);
@@ -180,7 +202,9 @@ pub fn core_distance(a: &[[f64; 2]], b: &[[f64; 2]]) -> f64 {
 }
 
 fn seg_seg(a1: [f64; 2], a2: [f64; 2], b1: [f64; 2], b2: [f64; 2]) -> f64 {
-    let cross = |o: [f64; 2], p: [f64; 2], q: [f64; 2]| (p[0] - o[0]) * (q[1] - o[1]) - (p[1] - o[1]) * (q[0] - o[0]);
+    let cross = |o: [f64; 2], p: [f64; 2], q: [f64; 2]| {
+        (p[0] - o[0]) * (q[1] - o[1]) - (p[1] - o[1]) * (q[0] - o[0])
+    };
     let d1 = cross(a1, a2, b1);
     let d2 = cross(a1, a2, b2);
     let d3 = cross(b1, b2, a1);
@@ -188,7 +212,10 @@ fn seg_seg(a1: [f64; 2], a2: [f64; 2], b1: [f64; 2], b2: [f64; 2]) -> f64 {
     if a1 != a2 && b1 != b2 && d1 * d2 < 0.0 && d3 * d4 < 0.0 {
         return 0.0;
     }
-    seg_point(a1, b1, b2).min(seg_point(a2, b1, b2)).min(seg_point(b1, a1, a2)).min(seg_point(b2, a1, a2))
+    seg_point(a1, b1, b2)
+        .min(seg_point(a2, b1, b2))
+        .min(seg_point(b1, a1, a2))
+        .min(seg_point(b2, a1, a2))
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -212,11 +239,21 @@ pub fn score_state(case: &Case, state: ToiState, t: f64) -> (Verdict, Option<f64
     match state {
         ToiState::Failed(_) => (Verdict::Failed, None),
         ToiState::Separated => {
-            if r.min_dist >= -EPS { (Verdict::Correct, None) } else { (Verdict::Miss, None) }
+            if r.min_dist >= -EPS {
+                (Verdict::Correct, None)
+            } else {
+                (Verdict::Miss, None)
+            }
         }
         ToiState::Overlapped => {
             let d = case.distance_at(t);
-            if d <= EPS { (Verdict::Correct, Some(d)) } else if r.min_dist > 4.0 * SLOP { (Verdict::Ghost, Some(d)) } else { (Verdict::Early, Some(d)) }
+            if d <= EPS {
+                (Verdict::Correct, Some(d))
+            } else if r.min_dist > 4.0 * SLOP {
+                (Verdict::Ghost, Some(d))
+            } else {
+                (Verdict::Early, Some(d))
+            }
         }
         ToiState::Hit => {
             let d = case.distance_at(t);
@@ -229,19 +266,23 @@ pub fn score_state(case: &Case, state: ToiState, t: f64) -> (Verdict, Option<f64
             if d < -2.0 * SLOP {
                 return (Verdict::Miss, Some(d));
             }
-            if let Some(tt) = r.t_touch {
-                if t > tt {
-                    // Tunnelled through a deeper penetration between first contact and t?
-                    let n = 400;
-                    for i in 0..=n {
-                        let s = tt + (t - tt) * i as f64 / n as f64;
-                        if case.distance_at(s) < -2.0 * SLOP {
-                            return (Verdict::Miss, Some(d));
-                        }
+            if let Some(tt) = r.t_touch
+                && t > tt
+            {
+                // Tunnelled through a deeper penetration between first contact and t?
+                let n = 400;
+                for i in 0..=n {
+                    let s = tt + (t - tt) * i as f64 / n as f64;
+                    if case.distance_at(s) < -2.0 * SLOP {
+                        return (Verdict::Miss, Some(d));
                     }
                 }
             }
-            if d < -EPS { (Verdict::Late, Some(d)) } else { (Verdict::Correct, Some(d)) }
+            if d < -EPS {
+                (Verdict::Late, Some(d))
+            } else {
+                (Verdict::Correct, Some(d))
+            }
         }
     }
 }
@@ -297,7 +338,11 @@ pub fn nlerp_rotation(a0: f64, a1: f64, t: f64) -> (f64, f64) {
     let c = (1.0 - t) * c0 + t * c1;
     let s = (1.0 - t) * s0 + t * s1;
     let len = c.hypot(s);
-    if len > 0.0 { (c / len, s / len) } else { (c0, s0) }
+    if len > 0.0 {
+        (c / len, s / len)
+    } else {
+        (c0, s0)
+    }
 }
 
 impl Case {
@@ -359,7 +404,11 @@ pub fn score_model(
     Some(match state {
         Reported::Failed => (Verdict::Failed, None),
         Reported::Separated => {
-            if r.min_dist >= -EPS { (Verdict::Correct, None) } else { (Verdict::Miss, None) }
+            if r.min_dist >= -EPS {
+                (Verdict::Correct, None)
+            } else {
+                (Verdict::Miss, None)
+            }
         }
         Reported::Overlapped => {
             let d = d_at(t);
@@ -398,7 +447,11 @@ pub fn score_model(
                     }
                 }
             }
-            if d < -EPS { (Verdict::Late, Some(d)) } else { (Verdict::Correct, Some(d)) }
+            if d < -EPS {
+                (Verdict::Late, Some(d))
+            } else {
+                (Verdict::Correct, Some(d))
+            }
         }
     })
 }
