@@ -323,7 +323,22 @@ impl Bvh {
             let range = &mut build[task.start as usize..task.end as usize];
             let bounds = task.extent.bounds;
             *depth = (*depth).max(task.depth);
-            if range.len() <= LEAF_MAX_ITEMS {
+            let leaf_max: usize = std::env::var("BVH_LEAF").ok().and_then(|v| v.parse().ok()).unwrap_or(4);
+            let ct: Option<f32> = std::env::var("BVH_CT").ok().and_then(|v| v.parse().ok());
+            let mut make_leaf = range.len() <= leaf_max;
+            if make_leaf && let Some(ct) = ct && range.len() > 1 {
+                let size = task.extent.cmax - task.extent.cmin;
+                if size.is_finite() && let Some((axis, bin)) = sah_split(range, task.extent.cmin, size) {
+                    let scale = bin_scale(size[axis]);
+                    let lo = task.extent.cmin[axis];
+                    let mut l = EMPTY; let mut r = EMPTY; let mut nl = 0.0; let mut nr = 0.0;
+                    for it in range.iter() { if bin_of(it.centroid[axis], lo, scale) <= bin { l = l.min(it.bounds); nl += 1.0 } else { r = r.min(it.bounds); nr += 1.0 } }
+                    let a = half_perimeter(bounds);
+                    let split_cost = ct * a + nl * half_perimeter(l) + nr * half_perimeter(r);
+                    if split_cost < range.len() as f32 * a { make_leaf = false; }
+                }
+            }
+            if make_leaf {
                 nodes[task.node as usize] = Node {
                     bounds,
                     first: task.start,
