@@ -11,7 +11,7 @@
 //!
 //! # What runs
 //!
-//! - `ours`: [`Bvh::build`] (binned SAH, leaves of up to 4) and [`Bvh::query`].
+//! - `ours`: [`Bvh::build`] (binned SAH, leaves of up to 16) and [`Bvh::query`].
 //! - `obvhs-*`: `obvhs::bvh2::Bvh2` built as `obvhs::bvh2::builder::build_bvh2` does (PLOC,
 //!   reinsertion, leaf collapse) with the `very_fast_build`, `fast_build` and `medium_build`
 //!   presets, but reusing the builder and the tree between builds, as ours does. Boxes are 3D

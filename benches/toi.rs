@@ -45,6 +45,9 @@
 //! CARGO_TARGET_DIR=target-bench cargo bench --bench toi -- --quick   # short run
 //! CARGO_TARGET_DIR=target-bench cargo test --benches                 # smoke test
 //! ```
+//!
+//! Environment: `TOI_BENCH_FAMILIES=spinning,bullet` runs only those families;
+//! `TOI_BENCH_VERBOSE=1` lists every answer that is not correct under its family's table.
 
 #[path = "../tests/support/oracle.rs"]
 mod oracle;
@@ -205,15 +208,21 @@ fn box2d_input(case: &Case) -> boxdd::Result<boxdd::ToiInput> {
 // ---------------------------------------------------------------------------------------------
 // Calling each implementation
 // ---------------------------------------------------------------------------------------------
+//
+// Never inlined, so that a profiler (callgrind) sees one function per implementation and can
+// count each one's instructions per call.
 
+#[inline(never)]
 fn call_ours(input: &ToiInput) -> ToiOutput {
     time_of_impact(input)
 }
 
+#[inline(never)]
 fn call_box2d(input: &boxdd::ToiInput) -> boxdd::Result<boxdd::ToiOutput> {
     boxdd::time_of_impact(*input)
 }
 
+#[inline(never)]
 fn call_parry(
     c: &ParryCase,
 ) -> Result<Option<parry2d::query::ShapeCastHit>, parry2d::query::Unsupported> {
@@ -837,6 +846,24 @@ fn report(families: &[Family<'_>], mode: &RunMode) -> String {
     out
 }
 
+/// The families to run: all, or those named in `TOI_BENCH_FAMILIES` (comma-separated), e.g.
+/// to profile one family at a time.
+fn selected_families() -> Vec<&'static str> {
+    let Ok(list) = std::env::var("TOI_BENCH_FAMILIES") else {
+        return FAMILIES.to_vec();
+    };
+    let wanted: Vec<&str> = list.split(',').map(str::trim).collect();
+    for name in &wanted {
+        if !FAMILIES.contains(name) {
+            eprintln!("warning: TOI_BENCH_FAMILIES names an unknown family {name:?}");
+        }
+    }
+    FAMILIES
+        .into_iter()
+        .filter(|f| wanted.contains(f))
+        .collect()
+}
+
 fn main() {
     let mode = RunMode::from_args();
     let mut criterion = Criterion::default()
@@ -863,13 +890,14 @@ fn main() {
     // Peers' panics are caught and scored as failures; keep their messages off the output.
     let hook = std::panic::take_hook();
     std::panic::set_hook(Box::new(|_| {}));
-    let mut families: Vec<Family<'_>> = FAMILIES
+    let selected = selected_families();
+    let mut families: Vec<Family<'_>> = selected
         .iter()
         .map(|&f| Family::prepare(f, &cases))
         .collect();
     std::panic::set_hook(hook);
     let listed: usize = families.iter().map(|f| f.cases.len()).sum();
-    if listed != cases.len() {
+    if selected.len() == FAMILIES.len() && listed != cases.len() {
         eprintln!(
             "warning: {} case(s) belong to no known family",
             cases.len() - listed

@@ -47,3 +47,8 @@ pub mod prelude {
     };
     pub use glam::Vec2;
 }
+
+/// The README's examples, compiled and run as doc tests.
+#[doc = include_str!("../README.md")]
+#[cfg(doctest)]
+pub struct ReadmeDoctests;

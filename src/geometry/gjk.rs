@@ -130,7 +130,7 @@ impl Simplex {
         s
     }
 
-    fn to_cache(&self) -> SimplexCache {
+    fn cache(&self) -> SimplexCache {
         let mut c = SimplexCache {
             count: self.count as u8,
             ..Default::default()
@@ -330,7 +330,7 @@ pub fn shape_distance(input: &DistanceInput<'_>, cache: &mut SimplexCache) -> Di
     }
 
     let (local_a, local_b) = simplex.witness_points();
-    *cache = simplex.to_cache();
+    *cache = simplex.cache();
     let delta = local_b - local_a;
     let mut distance = delta.length();
     let local_normal = if simplex.count == 3 {

@@ -9,7 +9,7 @@ use smallvec::SmallVec;
 
 use super::bvh::Bvh;
 use super::constants::separation_tolerance;
-use super::math::{Pose, cross, left_perp};
+use super::math::{Pose, cross, left_perp, right_perp};
 use super::proxy::ShapeProxy;
 use super::shape::Aabb;
 use super::sweep::Sweep;
@@ -178,11 +178,12 @@ fn approaching(sweep: &Sweep, point: Vec2, normal: Vec2, threshold: f32) -> bool
 /// the step touching or inside it:
 ///
 /// - touching or shallowly overlapping, moving deeper: a hit at 0 (the motion is stopped);
-/// - touching or shallowly overlapping, moving apart or along: the target separation is
-///   lowered to just below the current one (never below `-slop / 2`), so the body may slide
-///   but not sink;
+/// - touching or shallowly overlapping, moving apart or along: without rotation it cannot get
+///   deeper, so it is clear; with rotation the target separation is lowered below the current
+///   one (never below `-slop / 2`), so the body may slide but not sink;
 /// - cores overlapping (deep): Box2D's fallback, the same query with a small circle at the
-///   centre of mass; if even that overlaps, the motion is let through and flagged.
+///   centre of mass; if the centre itself is inside a polygon target, motion that takes it
+///   further in across the face it is nearest to is stopped, other motion is let through.
 fn pair_toi(body: &BodyState, sweep: &Sweep, target: &StaticItem, slop: f32) -> PairOutcome {
     let target_sweep = Sweep::stationary(Vec2::ZERO, target.position, target.angle);
     let mut input = ToiInput::new(body.proxy, *sweep, target.proxy, target_sweep);
@@ -206,7 +207,7 @@ fn pair_toi(body: &BodyState, sweep: &Sweep, target: &StaticItem, slop: f32) -> 
         ToiState::Hit | ToiState::Overlapped => {
             let overlapping = out.separation < 0.0;
             if out.normal == Vec2::ZERO {
-                return core_fallback(body, sweep, slop, input);
+                return core_fallback(body, sweep, target, slop, input);
             }
             if approaching(
                 sweep,
@@ -221,16 +222,26 @@ fn pair_toi(body: &BodyState, sweep: &Sweep, target: &StaticItem, slop: f32) -> 
                     overlapping,
                 };
             }
-            // The lowered band must leave the start clearly above it. A target of
-            // `separation - tolerance` puts the start exactly on the band's upper edge, where
-            // rounding decides, and a floor above `separation - 2 tolerance` puts it inside:
-            // either way the query hits at 0 and the body is frozen although it moves apart
-            // or along. A translating body that is not approaching cannot get deeper (the
-            // distance along a line to a convex set is convex); a turning one is caught at
-            // most `3 tolerance` below where it started.
+            // Moving apart or exactly along, without turning: the core distance along a
+            // straight line to a convex set is convex in time and does not decrease at the
+            // start, so it never decreases. Nothing to stop, however deep the start.
+            if sweep.a0 == sweep.a1 && !approaching(sweep, out.point, out.normal, 0.0) {
+                return PairOutcome::Clear { overlapping };
+            }
+            // Turning: search the rest of the sweep with a band lowered below the start, so
+            // that the body may slide or leave but not sink (never below `-slop / 2`). The
+            // start must stay clearly above the band: on its edge rounding decides, and in it
+            // the query hits at 0 and the body is frozen, even moving away. So the target is
+            // `2 fine` below the start, `fine` being the query's tolerance: the slop's quarter,
+            // or a quarter of the core distance when the cores are closer than four of those,
+            // since the query never lets the cores come closer than twice its tolerance (this
+            // is what sharp bodies a little below the usual band need).
             let tolerance = separation_tolerance(slop);
-            let relaxed = out.separation.min(slop) - 2.0 * tolerance;
-            input.config.target_separation = Some(relaxed);
+            let start = out.separation.min(slop);
+            let core_distance = out.separation + body.proxy.radius + target.proxy.radius;
+            let fine = (0.25 * core_distance).clamp(0.02 * tolerance, tolerance);
+            input.config.linear_slop = 4.0 * fine;
+            input.config.target_separation = Some((start - 2.0 * fine).max(-0.5 * slop));
             let out2 = time_of_impact(&input);
             match out2.state {
                 ToiState::Separated => PairOutcome::Clear { overlapping },
@@ -253,7 +264,13 @@ fn pair_toi(body: &BodyState, sweep: &Sweep, target: &StaticItem, slop: f32) -> 
     }
 }
 
-fn core_fallback(body: &BodyState, sweep: &Sweep, slop: f32, mut input: ToiInput) -> PairOutcome {
+fn core_fallback(
+    body: &BodyState,
+    sweep: &Sweep,
+    target: &StaticItem,
+    slop: f32,
+    mut input: ToiInput,
+) -> PairOutcome {
     input.proxy_a = ShapeProxy::from_parts(&[body.local_center], body.core_radius);
     let out = time_of_impact(&input);
     match out.state {
@@ -283,13 +300,44 @@ fn core_fallback(body: &BodyState, sweep: &Sweep, slop: f32, mut input: ToiInput
                     normal: out.normal,
                     overlapping: true,
                 }
+            } else if out.normal == Vec2::ZERO
+                && let Some((exit, depth)) = exit_face(target, sweep.c0)
+                && approaching(sweep, sweep.c0, -exit, 0.01 * separation_tolerance(slop))
+            {
+                // The centre itself is inside the target: moving it further in across the face
+                // it is nearest to is going deeper. Stopped, at the point of that face.
+                PairOutcome::Hit {
+                    fraction: 0.0,
+                    point: sweep.c0 + depth * exit,
+                    normal: -exit,
+                    overlapping: true,
+                }
             } else {
-                // The centre itself is inside the target: no direction is known to be
-                // "deeper", so the user's motion stands.
                 PairOutcome::Clear { overlapping: true }
             }
         }
     }
+}
+
+/// For a point inside a polygon target's core: the outward unit normal (world) of the face the
+/// point is nearest to, and its distance from that face. `None` for targets with fewer than
+/// three core points (their cores have no inside).
+fn exit_face(target: &StaticItem, point: Vec2) -> Option<(Vec2, f32)> {
+    let points = target.proxy.points();
+    let n = points.len();
+    if n < 3 {
+        return None;
+    }
+    let pose = Pose::new(target.position, target.angle);
+    let local = pose.inv_transform_point(point);
+    // Polygon cores are counter-clockwise: the outward normal of an edge is on its right.
+    let (normal, distance) = (0..n)
+        .map(|i| {
+            let normal = right_perp(points[(i + 1) % n] - points[i]).normalize_or_zero();
+            (normal, normal.dot(local - points[i]))
+        })
+        .max_by(|a, b| a.1.total_cmp(&b.1))?;
+    (normal != Vec2::ZERO).then(|| (pose.q.rotate(normal), -distance))
 }
 
 /// The impulse response at a contact against an immovable target.

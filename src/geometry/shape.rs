@@ -387,7 +387,7 @@ impl Polygon {
             // Width across edge i: its offset minus the lowest vertex along its normal.
             width = width.min(normals[i].dot(hull[i]) + sep);
         }
-        if !(width >= MIN_SHAPE_SIZE) {
+        if width.is_nan() || width < MIN_SHAPE_SIZE {
             return Err(ShapeError::Collinear);
         }
         Ok(poly)
@@ -596,10 +596,10 @@ fn polygon_mass(p: &Polygon, density: f32) -> MassProperties {
     let mut v = [Vec2::ZERO; MAX_POLYGON_VERTICES];
     v[..n].copy_from_slice(p.vertices());
     if p.radius > 0.0 {
-        for i in 0..n {
+        for (i, vertex) in v.iter_mut().enumerate().take(n) {
             let j = if i == 0 { n - 1 } else { i - 1 };
             let mid = (p.normals[j] + p.normals[i]).normalize_or_zero();
-            v[i] += core::f32::consts::SQRT_2 * p.radius * mid;
+            *vertex += core::f32::consts::SQRT_2 * p.radius * mid;
         }
     }
     let r = v[0];

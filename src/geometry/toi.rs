@@ -470,6 +470,7 @@ impl MotionBounds {
 /// or the left end of the last bracket (where `s > target`, so still clear) if the iterations
 /// ran out.
 #[inline]
+#[allow(clippy::too_many_arguments)] // the bracket and its values, as Box2D passes them
 fn find_root(
     f: &SeparationFunction<'_>,
     ia: usize,
@@ -512,6 +513,7 @@ fn find_root(
 /// proven (where the search should look next; `t2` when all is proven). Spends at most
 /// [`CERTIFY_MAX_EVALUATIONS`] evaluations of `S` on bisection. The prefix always ends after
 /// `t1` when `s1 > level` and the bounds are finite.
+#[allow(clippy::too_many_arguments)] // the interval, its end values, bounds and the level
 fn certify(
     f: &SeparationFunction<'_>,
     t1: f32,
@@ -761,7 +763,7 @@ pub fn time_of_impact(input: &ToiInput) -> ToiOutput {
             return out;
         }
         if reached >= t_end {
-            if t_end >= t_max && !(s2_witness <= target + tolerance) {
+            if t_end >= t_max && (s2_witness.is_nan() || s2_witness > target + tolerance) {
                 out.state = ToiState::Separated;
                 out.fraction = t_max;
                 return out;

@@ -272,3 +272,268 @@ pub fn deepest_penetration(world: &mut World) -> (f32, Option<(Entity, Entity)>)
     }
     (deepest, pair)
 }
+
+/// What to put in a scalable level (see [`generate_level`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct LevelConfig {
+    /// Number of CCD bodies. The default is 1,000.
+    pub bodies: usize,
+    /// Number of static colliders, the four outer walls included. The default is 1,000.
+    pub statics: usize,
+    /// Side of the square cell that holds one static (m); the level grows with the number of
+    /// statics at a constant density. The default is 4 m.
+    pub cell: f32,
+    /// Slowest launch speed (m/s). The default is 1.
+    pub min_speed: f32,
+    /// Fastest launch speed (m/s), log-uniform in between. The default is 500.
+    pub max_speed: f32,
+    /// Largest spin in turns per step. The default is 1.
+    pub max_turns_per_step: f32,
+    /// Length of a step (s). The default is 1/60.
+    pub timestep: f32,
+    /// Seed of the level. The default is 1.
+    pub seed: u64,
+}
+
+impl Default for LevelConfig {
+    fn default() -> Self {
+        Self {
+            bodies: 1000,
+            statics: 1000,
+            cell: 4.0,
+            min_speed: 1.0,
+            max_speed: 500.0,
+            max_turns_per_step: 1.0,
+            timestep: 1.0 / 60.0,
+            seed: 1,
+        }
+    }
+}
+
+/// One static of a [`Level`].
+#[derive(Clone, Debug)]
+pub struct LevelStatic {
+    /// Its shape.
+    pub collider: Collider,
+    /// Where it is (m).
+    pub position: Vec2,
+    /// Its angle (radians).
+    pub angle: f32,
+}
+
+/// One body of a [`Level`], at the start of a step.
+#[derive(Clone, Debug)]
+pub struct LevelBody {
+    /// Its shape.
+    pub collider: Collider,
+    /// Body origin (m).
+    pub position: Vec2,
+    /// Angle (radians).
+    pub angle: f32,
+    /// Launch velocity.
+    pub velocity: Velocity,
+    /// Restitution in `[0, 1)`.
+    pub restitution: f32,
+    /// Friction in `[0, 0.5)`.
+    pub friction: f32,
+}
+
+impl LevelBody {
+    /// The pose after moving freely for `dt` seconds (what the user's movement code does).
+    pub fn pose_after(&self, dt: f32) -> (Vec2, f32) {
+        (
+            self.position + self.velocity.linear * dt,
+            self.angle + self.velocity.angular * dt,
+        )
+    }
+}
+
+/// A level as plain data, so the same scene can be built in this plugin and in other engines.
+#[derive(Clone, Debug)]
+pub struct Level {
+    /// The inside of the outer walls.
+    pub interior: Aabb,
+    /// The walls, boxes and slopes; the four outer walls first.
+    pub statics: Vec<LevelStatic>,
+    /// The CCD bodies.
+    pub bodies: Vec<LevelBody>,
+}
+
+/// A seeded level of thin walls, boxes and slopes, one static per cell of a square grid
+/// (`config.cell` metres) inside four outer walls, with bodies of every shape placed clear of
+/// every static (checked through the plugin's own [`StaticSet`](crate::geometry::StaticSet),
+/// so building costs O(N log M + M log M), never O(N × M)).
+pub fn generate_level(config: &LevelConfig) -> Level {
+    use crate::geometry::{StaticItem, StaticSet};
+    let mut rng = SceneRng::new(config.seed);
+    let inner = config.statics.saturating_sub(4);
+    let side = (inner as f64).sqrt().ceil().max(1.0) as usize;
+    let c = config.cell;
+    let h = 0.5 * c * side as f32;
+    let t = 0.005;
+    let mut statics = Vec::with_capacity(config.statics.max(4));
+    let wall = |hx: f32, hy: f32| Collider::rectangle(hx, hy).expect("wall size is valid");
+    for (collider, position) in [
+        (wall(h + 2.0 * t, t), Vec2::new(0.0, -h - t)),
+        (wall(h + 2.0 * t, t), Vec2::new(0.0, h + t)),
+        (wall(t, h + 2.0 * t), Vec2::new(-h - t, 0.0)),
+        (wall(t, h + 2.0 * t), Vec2::new(h + t, 0.0)),
+    ] {
+        statics.push(LevelStatic {
+            collider,
+            position,
+            angle: 0.0,
+        });
+    }
+    for i in 0..inner {
+        let (col, row) = (i % side, i / side);
+        let center = Vec2::new(
+            -h + c * (col as f32 + 0.5),
+            -h + c * (row as f32 + 0.5),
+        );
+        let (collider, angle) = match rng.next_u64() % 3 {
+            // A thin wall (1 to 10 cm thick), horizontal or vertical.
+            0 => {
+                let half = rng.range(0.3, 0.48) * c;
+                let thick = rng.range(0.005, 0.05);
+                let vertical = rng.next_u64() % 2 == 0;
+                (
+                    Collider::rectangle(half, thick),
+                    if vertical { core::f32::consts::FRAC_PI_2 } else { 0.0 },
+                )
+            }
+            // A box at any angle.
+            1 => (
+                Collider::rectangle(rng.range(0.05, 0.25) * c, rng.range(0.05, 0.25) * c),
+                rng.range(-3.1, 3.1),
+            ),
+            // A slope: a 1 cm plank at an angle.
+            _ => (
+                Collider::rectangle(rng.range(0.2, 0.45) * c, 0.005),
+                rng.range(-0.8, 0.8),
+            ),
+        };
+        let collider = collider.expect("static size is valid");
+        // Keep the static inside its cell: jitter only within the slack its bounds leave.
+        let extent = collider.proxy().aabb(Pose::new(Vec2::ZERO, angle)).max;
+        let slack = (Vec2::splat(0.5 * c - 0.05) - extent).max(Vec2::ZERO);
+        let jitter = Vec2::new(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0)) * slack;
+        statics.push(LevelStatic {
+            collider,
+            position: center + jitter,
+            angle,
+        });
+    }
+
+    let mut set = StaticSet::default();
+    set.rebuild(statics.iter().map(|s| StaticItem {
+        proxy: *s.collider.proxy(),
+        position: s.position,
+        angle: s.angle,
+    }));
+    let clearance = 0.05;
+    let mut found = Vec::new();
+    let mut bodies = Vec::with_capacity(config.bodies);
+    for _ in 0..config.bodies {
+        let collider = Collider::new(random_body_shape(&mut rng));
+        let mut pose;
+        let mut tries = 0;
+        loop {
+            pose = Pose::new(
+                Vec2::new(rng.range(-h + 0.7, h - 0.7), rng.range(-h + 0.7, h - 0.7)),
+                rng.range(-3.1, 3.1),
+            );
+            tries += 1;
+            found.clear();
+            set.bvh()
+                .query(&collider.proxy().aabb(pose).expanded(clearance), &mut found);
+            let clear = found.iter().all(|&k| {
+                let item = &set.items()[k as usize];
+                let d = shape_distance(
+                    &DistanceInput {
+                        proxy_a: collider.proxy(),
+                        proxy_b: &item.proxy,
+                        pose_a: pose,
+                        pose_b: Pose::new(item.position, item.angle),
+                        use_radii: true,
+                    },
+                    &mut Default::default(),
+                );
+                d.distance > clearance && d.simplex_count < 3
+            });
+            if clear || tries > 100 {
+                break;
+            }
+        }
+        let direction = rng.range(0.0, core::f32::consts::TAU);
+        let speed = rng.log_range(config.min_speed, config.max_speed);
+        let spin = rng.range(-config.max_turns_per_step, config.max_turns_per_step)
+            * core::f32::consts::TAU
+            / config.timestep;
+        bodies.push(LevelBody {
+            collider,
+            position: pose.p,
+            angle: pose.q.angle(),
+            velocity: Velocity {
+                linear: speed * Vec2::new(direction.cos(), direction.sin()),
+                angular: spin,
+            },
+            restitution: rng.range(0.0, 1.0),
+            friction: rng.range(0.0, 0.5),
+        });
+    }
+    Level {
+        interior: Aabb {
+            min: Vec2::splat(-h),
+            max: Vec2::splat(h),
+        },
+        statics,
+        bodies,
+    }
+}
+
+/// Spawns a [`Level`] into `world`: statics first (in order), then the bodies with
+/// [`CcdEnabled`]`(ccd)`, their velocity, restitution, friction and mass.
+pub fn spawn_level(world: &mut World, level: &Level, ccd: bool) -> Arena {
+    let statics = level
+        .statics
+        .iter()
+        .map(|s| {
+            world
+                .spawn((
+                    s.collider,
+                    StaticCollider,
+                    Transform::from_xyz(s.position.x, s.position.y, 0.0)
+                        .with_rotation(Quat::from_rotation_z(s.angle)),
+                ))
+                .id()
+        })
+        .collect();
+    let bodies = level
+        .bodies
+        .iter()
+        .map(|b| {
+            let mass = b.collider.mass_properties(1.0);
+            world
+                .spawn((
+                    b.collider,
+                    CcdEnabled(ccd),
+                    b.velocity,
+                    Transform::from_xyz(b.position.x, b.position.y, 0.0)
+                        .with_rotation(Quat::from_rotation_z(b.angle)),
+                    Restitution(b.restitution),
+                    Friction(b.friction),
+                    BodyMass {
+                        mass: mass.mass,
+                        inertia: mass.inertia,
+                    },
+                ))
+                .id()
+        })
+        .collect();
+    Arena {
+        interior: level.interior,
+        bodies,
+        statics,
+    }
+}

@@ -188,7 +188,8 @@ type BodyQuery<'w, 's> = Query<
         Entity,
         &'static Collider,
         &'static Sweep,
-        &'static CcdEnabled,
+        // Optional so that a body whose `CcdEnabled` was removed is reset to `Idle`.
+        Option<&'static CcdEnabled>,
         Option<&'static Velocity>,
         Option<&'static Restitution>,
         Option<&'static Friction>,
@@ -230,7 +231,7 @@ pub(crate) fn gather_bodies(
     for (entity, collider, sweep, enabled, velocity, restitution, friction, mass, mut toi) in
         &mut bodies
     {
-        if !enabled.0 || !sweep.recorded {
+        if !enabled.is_some_and(|e| e.0) || !sweep.recorded {
             if toi.status != CcdStatus::Idle {
                 *toi = TimeOfImpact::default();
             }
@@ -377,20 +378,27 @@ pub(crate) fn write_back(
             continue;
         };
         let other = |target: u32| workspace.static_entities[target as usize];
-        let moved = result.position != sweep.end_position || result.angle != sweep.end_angle;
-        if moved {
-            transform.translation.x = result.position.x;
-            transform.translation.y = result.position.y;
-            transform.rotation = Quat::from_rotation_z(result.angle);
+        // Without an impact or a failure the body ends where its user put it: that pose is
+        // left exactly as it is (the solver's went through the centre of mass and back, and
+        // a rebuilt rotation would not have the user's bits).
+        let (position, angle) = if result.impacts.is_empty() && result.failure.is_none() {
+            (sweep.end_position, sweep.end_angle)
+        } else {
+            (result.position, result.angle)
+        };
+        if position != sweep.end_position || angle != sweep.end_angle {
+            transform.translation.x = position.x;
+            transform.translation.y = position.y;
+            transform.rotation = Quat::from_rotation_z(angle);
         }
-        sweep.resolved_position = result.position;
-        sweep.resolved_angle = result.angle;
+        sweep.resolved_position = position;
+        sweep.resolved_angle = angle;
         sweep.local_center = body.state.local_center;
-        if let (Some(mut v), Some((linear, angular))) = (velocity, result.velocity) {
-            if v.linear != linear || v.angular != angular {
-                v.linear = linear;
-                v.angular = angular;
-            }
+        if let (Some(mut v), Some((linear, angular))) = (velocity, result.velocity)
+            && (v.linear != linear || v.angular != angular)
+        {
+            v.linear = linear;
+            v.angular = angular;
         }
         let first_hit = result.impacts.first().map(|i| Impact {
             other: other(i.target),

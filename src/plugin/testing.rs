@@ -37,7 +37,10 @@ use bevy_time::{Fixed, Real, Time, TimePlugin, TimeUpdateStrategy};
 use bevy_transform::components::Transform;
 use glam::{Quat, Vec3};
 
-pub use super::arena::{Arena, ArenaConfig, SceneRng, deepest_penetration, spawn_arena};
+pub use super::arena::{
+    Arena, ArenaConfig, Level, LevelBody, LevelConfig, LevelStatic, SceneRng, deepest_penetration,
+    generate_level, spawn_arena, spawn_level,
+};
 use super::{CcdEnabled, CcdPlugin, Collider, StaticCollider, Velocity};
 use crate::geometry::{Aabb, Pose};
 

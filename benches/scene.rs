@@ -1,0 +1,759 @@
+//! CCD at scale: one fixed step of the CCD phases on a seeded level (`testing::generate_level`:
+//! walls, boxes and slopes, one static per 4 m cell; bodies of every shape at 1..500 m/s with
+//! up to a turn per step), for N bodies x M statics x {Clamp, SubStep} x {1 thread, 2 threads},
+//! the per-phase split, the pure query/solve kernels (to isolate the plugin's own overhead),
+//! the memory kept per body, and the same scenes in Box2D v3 (`boxdd`) and Rapier
+//! (`rapier2d`) with their continuous collision on and off.
+//!
+//! ```text
+//! CARGO_TARGET_DIR=target-scene cargo bench --bench scene
+//! SCENE_QUICK=1 ...   # N in {1k, 10k} only, peers at M = 1k only
+//! ```
+//!
+//! Every timed iteration starts from the same state: the bodies are put back at their start
+//! pose and velocity (untimed), `RecordStart` runs (timed), the bodies are moved to their free
+//! end pose (untimed: that is the user's movement), then `RecordEnd`, `BroadPhase`,
+//! `TimeOfImpact` and `Resolve` run (timed). A summary with medians of the per-iteration times
+//! is printed at the end and written to `$CARGO_TARGET_DIR/scene-summary.md`.
+
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+use std::hint::black_box;
+use std::time::{Duration, Instant};
+
+use bevy_app::{App, FixedFirst, FixedPostUpdate};
+use bevy_ccd::geometry::{self, BodyState, ResolveMode, SolveSettings, StaticItem, StaticSet};
+use bevy_ccd::plugin::CcdWorkspace;
+use bevy_ccd::prelude::*;
+use bevy_ccd::testing::{Level, LevelConfig, generate_level, headless_app, spawn_level};
+use bevy_ecs::message::Messages;
+use bevy_ecs::prelude::*;
+use bevy_ecs::query::QueryState;
+use bevy_transform::components::Transform;
+use criterion::{Criterion, SamplingMode};
+use glam::Quat;
+
+const DT: f32 = 1.0 / 60.0;
+const SEED: u64 = 7;
+
+fn level(n: usize, m: usize) -> Level {
+    generate_level(&LevelConfig {
+        bodies: n,
+        statics: m,
+        timestep: DT,
+        seed: SEED ^ (n as u64) << 20 ^ m as u64,
+        ..Default::default()
+    })
+}
+
+fn transform(p: Vec2, a: f32) -> Transform {
+    Transform::from_xyz(p.x, p.y, 0.0).with_rotation(Quat::from_rotation_z(a))
+}
+
+fn median(v: &mut [f64]) -> f64 {
+    v.sort_by(f64::total_cmp);
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    let k = v.len() / 2;
+    if v.len() % 2 == 1 {
+        v[k]
+    } else {
+        0.5 * (v[k - 1] + v[k])
+    }
+}
+
+// ---------------------------------------------------------------------------------------
+// Ours
+// ---------------------------------------------------------------------------------------
+
+/// Instants taken between the `CcdSystems` sets of the main schedule.
+#[derive(Resource, Default)]
+struct Stamps([Option<Instant>; 5]);
+
+fn stamp<const K: usize>(mut s: ResMut<Stamps>) {
+    s.0[K] = Some(Instant::now());
+}
+
+struct Ours {
+    app: App,
+    bodies: Vec<Entity>,
+    start: Vec<(Transform, Velocity)>,
+    end: Vec<Transform>,
+    query: QueryState<(&'static mut Transform, &'static mut Velocity)>,
+}
+
+/// Seconds: [total, record (start + end), broad phase, time of impact, resolve, scheduling].
+type Phases = [f64; 6];
+
+impl Ours {
+    fn new(level: &Level) -> Self {
+        let mut app = headless_app(DT as f64);
+        app.insert_resource(CcdConfig {
+            timestep: Some(DT),
+            ..Default::default()
+        });
+        app.init_resource::<Stamps>();
+        app.add_systems(
+            FixedPostUpdate,
+            (
+                stamp::<0>.before(CcdSystems::RecordEnd),
+                stamp::<1>
+                    .after(CcdSystems::RecordEnd)
+                    .before(CcdSystems::BroadPhase),
+                stamp::<2>
+                    .after(CcdSystems::BroadPhase)
+                    .before(CcdSystems::TimeOfImpact),
+                stamp::<3>
+                    .after(CcdSystems::TimeOfImpact)
+                    .before(CcdSystems::Resolve),
+                stamp::<4>.after(CcdSystems::Resolve),
+            ),
+        );
+        let arena = spawn_level(app.world_mut(), level, true);
+        let start = level
+            .bodies
+            .iter()
+            .map(|b| (transform(b.position, b.angle), b.velocity))
+            .collect();
+        let end = level
+            .bodies
+            .iter()
+            .map(|b| {
+                let (p, a) = b.pose_after(DT);
+                transform(p, a)
+            })
+            .collect();
+        let query = app.world_mut().query();
+        let mut ours = Self {
+            app,
+            bodies: arena.bodies,
+            start,
+            end,
+            query,
+        };
+        // First step builds the static hierarchy and grows the buffers.
+        ours.step();
+        ours
+    }
+
+    fn configure(&mut self, resolution: Resolution, parallel: bool) {
+        self.app.insert_resource(CcdConfig {
+            resolution,
+            timestep: Some(DT),
+            parallel,
+            ..Default::default()
+        });
+    }
+
+    fn step(&mut self) -> Phases {
+        let world = self.app.world_mut();
+        world.resource_mut::<Messages<CcdImpact>>().update();
+        for (e, (t, v)) in self.bodies.iter().zip(&self.start) {
+            let (mut tr, mut vel) = self.query.get_mut(world, *e).expect("body exists");
+            *tr = *t;
+            *vel = *v;
+        }
+        let t0 = Instant::now();
+        world.run_schedule(FixedFirst);
+        let a = t0.elapsed().as_secs_f64();
+        for (e, t) in self.bodies.iter().zip(&self.end) {
+            let (mut tr, _) = self.query.get_mut(world, *e).expect("body exists");
+            *tr = *t;
+        }
+        let t1 = Instant::now();
+        world.run_schedule(FixedPostUpdate);
+        let b = t1.elapsed().as_secs_f64();
+        let s = world.resource::<Stamps>().0.map(|s| s.expect("stamped"));
+        let d = |i: usize, j: usize| (s[j] - s[i]).as_secs_f64();
+        [
+            a + b,
+            a + d(0, 1),
+            d(1, 2),
+            d(2, 3),
+            d(3, 4),
+            b - d(0, 4),
+        ]
+    }
+
+    /// Impacts and sub-steps of the last step.
+    fn outcome(&mut self) -> (u64, u64, u64) {
+        let world = self.app.world_mut();
+        let mut q = world.query::<&TimeOfImpact>();
+        q.iter(world).fold((0, 0, 0), |acc, t| {
+            (
+                acc.0 + t.impacts as u64,
+                acc.1 + t.substeps as u64,
+                acc.2 + (t.status == CcdStatus::Error) as u64,
+            )
+        })
+    }
+}
+
+// ---------------------------------------------------------------------------------------
+// Geometry kernels alone (no ECS): the broad-phase queries and the per-body solve.
+// ---------------------------------------------------------------------------------------
+
+struct Kernels {
+    statics: StaticSet,
+    bodies: Vec<BodyState>,
+}
+
+impl Kernels {
+    fn new(level: &Level) -> Self {
+        let mut statics = StaticSet::default();
+        statics.rebuild(level.statics.iter().map(|s| StaticItem {
+            proxy: *s.collider.proxy(),
+            position: s.position,
+            angle: s.angle,
+        }));
+        let bodies = level
+            .bodies
+            .iter()
+            .map(|b| {
+                let props = b.collider.mass_properties(1.0);
+                let (p1, a1) = b.pose_after(DT);
+                let proxy = *b.collider.proxy();
+                BodyState {
+                    proxy,
+                    local_center: props.center,
+                    mass: props.mass,
+                    inertia: props.inertia,
+                    restitution: b.restitution,
+                    friction: b.friction,
+                    sweep: geometry::Sweep::from_origins(
+                        props.center,
+                        b.position,
+                        b.angle,
+                        p1,
+                        a1,
+                    ),
+                    velocity: Some((b.velocity.linear, b.velocity.angular)),
+                    core_radius: 0.25 * proxy.inner_radius(props.center),
+                }
+            })
+            .collect();
+        Self { statics, bodies }
+    }
+
+    fn candidates(&self) -> Vec<Vec<u32>> {
+        self.bodies
+            .iter()
+            .map(|b| {
+                let mut out = Vec::new();
+                self.statics
+                    .candidates(&b.proxy, &b.sweep, LINEAR_SLOP, &mut out);
+                out
+            })
+            .collect()
+    }
+
+    /// Seconds for all queries (into one reused buffer).
+    fn time_queries(&self) -> f64 {
+        let mut out = Vec::new();
+        let t = Instant::now();
+        for b in &self.bodies {
+            out.clear();
+            self.statics
+                .candidates(&b.proxy, &b.sweep, LINEAR_SLOP, &mut out);
+            black_box(&out);
+        }
+        t.elapsed().as_secs_f64()
+    }
+
+    fn time_solve(&self, candidates: &[Vec<u32>], mode: ResolveMode) -> f64 {
+        let settings = SolveSettings {
+            mode,
+            linear_slop: LINEAR_SLOP,
+            dt: DT,
+        };
+        let mut scratch = Vec::new();
+        let t = Instant::now();
+        for (b, c) in self.bodies.iter().zip(candidates) {
+            black_box(geometry::solve_body(
+                b,
+                &self.statics,
+                c,
+                &settings,
+                &mut scratch,
+            ));
+        }
+        t.elapsed().as_secs_f64()
+    }
+}
+
+const LINEAR_SLOP: f32 = bevy_ccd::geometry::LINEAR_SLOP;
+
+// ---------------------------------------------------------------------------------------
+// Peers
+// ---------------------------------------------------------------------------------------
+
+mod peers {
+    use super::*;
+
+    pub trait Peer {
+        fn reset(&mut self);
+        fn step(&mut self);
+    }
+
+    pub struct Box2d {
+        world: boxdd::World,
+        bodies: Vec<boxdd::BodyId>,
+        start: Vec<(Vec2, f32, Vec2, f32)>,
+    }
+
+    fn bv(v: Vec2) -> boxdd::Vec2 {
+        boxdd::Vec2::new(v.x, v.y)
+    }
+
+    pub fn box2d(f: &'static boxdd::Foundation, level: &Level, ccd: bool) -> boxdd::Result<Box2d> {
+        use boxdd::{BodyBuilder, BodyType, Filter, Position, ShapeDef, WorldBuilder};
+        let mut world = f.create_world(
+            WorldBuilder::from(f.world_def())
+                .gravity(boxdd::Vec2::new(0.0, 0.0))
+                .enable_continuous(ccd)
+                .enable_sleep(false)
+                .maximum_linear_speed(1000.0)
+                .worker_count(boxdd::WorkerCount::new(1)?)
+                .build()?,
+        )?;
+        // Bodies collide with statics only, as in bevy_ccd (no body-body contacts).
+        let static_filter = Filter {
+            category_bits: 2,
+            mask_bits: 1,
+            group_index: 0,
+        };
+        let body_filter = Filter {
+            category_bits: 1,
+            mask_bits: 2,
+            group_index: 0,
+        };
+        let static_def = ShapeDef::builder().filter(static_filter).build()?;
+        for s in &level.statics {
+            let id = world.create_body(
+                BodyBuilder::from(f.body_def())
+                    .body_type(BodyType::Static)
+                    .position(Position::new(s.position.x, s.position.y))
+                    .angle(s.angle)
+                    .build()?,
+            )?;
+            let proxy = s.collider.proxy();
+            world.body(id)?.create_polygon_from_points(
+                &static_def,
+                proxy.points().iter().map(|p| bv(*p)),
+                proxy.radius,
+            )?;
+        }
+        let mut bodies = Vec::with_capacity(level.bodies.len());
+        let mut start = Vec::with_capacity(level.bodies.len());
+        for b in &level.bodies {
+            let id = world.create_body(
+                BodyBuilder::from(f.body_def())
+                    .body_type(BodyType::Dynamic)
+                    .position(Position::new(b.position.x, b.position.y))
+                    .angle(b.angle)
+                    .linear_velocity(bv(b.velocity.linear))
+                    .angular_velocity(b.velocity.angular)
+                    .bullet(ccd)
+                    .allow_fast_rotation(true)
+                    .enable_sleep(false)
+                    .build()?,
+            )?;
+            let def = ShapeDef::builder()
+                .density(1.0)
+                .material(
+                    boxdd::SurfaceMaterial::new()
+                        .with_friction(b.friction)?
+                        .with_restitution(b.restitution)?,
+                )
+                .filter(body_filter)
+                .build()?;
+            let proxy = b.collider.proxy();
+            let pts = proxy.points();
+            let mut body = world.body(id)?;
+            match pts.len() {
+                1 => {
+                    body.create_circle(&def, &boxdd::shapes::Circle::new(bv(pts[0]), proxy.radius)?)?;
+                }
+                2 => {
+                    body.create_capsule_between(&def, bv(pts[0]), bv(pts[1]), proxy.radius)?;
+                }
+                _ => {
+                    body.create_polygon_from_points(
+                        &def,
+                        pts.iter().map(|p| bv(*p)),
+                        proxy.radius,
+                    )?;
+                }
+            }
+            drop(body);
+            bodies.push(id);
+            start.push((b.position, b.angle, b.velocity.linear, b.velocity.angular));
+        }
+        Ok(Box2d {
+            world,
+            bodies,
+            start,
+        })
+    }
+
+    impl Peer for Box2d {
+        fn reset(&mut self) {
+            for (id, (p, a, v, w)) in self.bodies.iter().zip(&self.start) {
+                let mut b = self.world.body(*id).expect("body");
+                b.set_position_and_rotation(boxdd::Position::new(p.x, p.y), *a)
+                    .expect("pose");
+                b.set_linear_velocity(bv(*v)).expect("velocity");
+                b.set_angular_velocity(*w).expect("spin");
+            }
+        }
+        fn step(&mut self) {
+            let _ = self.world.step(DT, 4).expect("step");
+        }
+    }
+
+    pub struct Rapier {
+        world: rapier2d::prelude::PhysicsWorld,
+        bodies: Vec<rapier2d::prelude::RigidBodyHandle>,
+        start: Vec<(Vec2, f32, Vec2, f32)>,
+    }
+
+    pub fn rapier(level: &Level, ccd: bool) -> Rapier {
+        use rapier2d::math::{Pose, Vector};
+        use rapier2d::prelude::*;
+        let rv = |v: Vec2| Vector::new(v.x, v.y);
+        let mut world = PhysicsWorld::new();
+        world.gravity = Vector::ZERO;
+        world.integration_parameters.dt = DT;
+        let static_groups =
+            InteractionGroups::new(Group::GROUP_2, Group::GROUP_1, InteractionTestMode::And);
+        let body_groups =
+            InteractionGroups::new(Group::GROUP_1, Group::GROUP_2, InteractionTestMode::And);
+        for s in &level.statics {
+            let h = world.bodies.insert(
+                RigidBodyBuilder::fixed().pose(Pose::new(rv(s.position), s.angle)),
+            );
+            let points = s.collider.proxy().points().iter().map(|p| rv(*p)).collect();
+            let c = ColliderBuilder::convex_polyline(points)
+                .expect("convex static")
+                .collision_groups(static_groups);
+            world.colliders.insert_with_parent(c, h, &mut world.bodies);
+        }
+        let mut bodies = Vec::new();
+        let mut start = Vec::new();
+        for b in &level.bodies {
+            let h = world.bodies.insert(
+                RigidBodyBuilder::dynamic()
+                    .pose(Pose::new(rv(b.position), b.angle))
+                    .linvel(rv(b.velocity.linear))
+                    .angvel(b.velocity.angular)
+                    .ccd_enabled(ccd)
+                    .can_sleep(false),
+            );
+            let proxy = b.collider.proxy();
+            let pts = proxy.points();
+            let c = match pts.len() {
+                1 => ColliderBuilder::ball(proxy.radius).translation(rv(pts[0])),
+                2 => ColliderBuilder::capsule_from_endpoints(rv(pts[0]), rv(pts[1]), proxy.radius),
+                _ if proxy.radius > 0.0 => ColliderBuilder::round_convex_polyline(
+                    pts.iter().map(|p| rv(*p)).collect(),
+                    proxy.radius,
+                )
+                .expect("convex body"),
+                _ => ColliderBuilder::convex_polyline(pts.iter().map(|p| rv(*p)).collect())
+                    .expect("convex body"),
+            }
+            .density(1.0)
+            .friction(b.friction)
+            .restitution(b.restitution)
+            .collision_groups(body_groups);
+            world.colliders.insert_with_parent(c, h, &mut world.bodies);
+            bodies.push(h);
+            start.push((b.position, b.angle, b.velocity.linear, b.velocity.angular));
+        }
+        Rapier {
+            world,
+            bodies,
+            start,
+        }
+    }
+
+    impl Peer for Rapier {
+        fn reset(&mut self) {
+            use rapier2d::math::{Pose, Vector};
+            for (h, (p, a, v, w)) in self.bodies.iter().zip(&self.start) {
+                let b = &mut self.world.bodies[*h];
+                b.set_position(Pose::new(Vector::new(p.x, p.y), *a), true);
+                b.set_linvel(Vector::new(v.x, v.y), true);
+                b.set_angvel(*w, true);
+            }
+        }
+        fn step(&mut self) {
+            self.world.step();
+        }
+    }
+}
+
+use peers::Peer;
+
+// ---------------------------------------------------------------------------------------
+
+fn criterion() -> Criterion {
+    Criterion::default()
+        .sample_size(10)
+        .warm_up_time(Duration::from_millis(300))
+        .measurement_time(Duration::from_secs(1))
+        .configure_from_args()
+}
+
+/// Benchmarks `step` (returning the seconds it took) and returns all per-iteration seconds.
+fn bench_custom(
+    c: &mut Criterion,
+    group: &str,
+    id: &str,
+    mut step: impl FnMut() -> f64,
+) -> Vec<f64> {
+    let mut samples = Vec::new();
+    let mut g = c.benchmark_group(group);
+    g.sampling_mode(SamplingMode::Flat);
+    g.bench_function(id, |b| {
+        b.iter_custom(|iters| {
+            let mut total = 0.0;
+            for _ in 0..iters {
+                let s = step();
+                samples.push(s);
+                total += s;
+            }
+            Duration::from_secs_f64(total)
+        })
+    });
+    g.finish();
+    samples
+}
+
+fn mode_name(r: Resolution) -> &'static str {
+    match r {
+        Resolution::Clamp => "clamp",
+        Resolution::SubStep { .. } => "substep",
+    }
+}
+
+fn main() {
+    let quick = std::env::var_os("SCENE_QUICK").is_some();
+    let mut c = criterion();
+    let ns: &[usize] = if quick {
+        &[1_000, 10_000]
+    } else {
+        &[1_000, 10_000, 50_000]
+    };
+    let ms: &[usize] = &[1_000, 100_000];
+    let modes = [Resolution::Clamp, Resolution::SubStep { max_substeps: 4 }];
+    let mut out = String::new();
+    let threads = bevy_tasks::ComputeTaskPool::get_or_init(bevy_tasks::TaskPool::default)
+        .thread_num();
+    writeln!(out, "compute task pool threads: {threads}").unwrap();
+
+    // (n, m, mode, threads) -> median step seconds
+    let mut ours: BTreeMap<(usize, usize, &str, usize), f64> = BTreeMap::new();
+    let mut phases_out = String::new();
+    let mut memory = String::new();
+    let mut kernels_out = String::new();
+    for &m in ms {
+        for &n in ns {
+            let t = Instant::now();
+            let lvl = level(n, m);
+            let build = t.elapsed().as_secs_f64();
+            let mut app = Ours::new(&lvl);
+            eprintln!(
+                "scene n={n} m={m}: generated in {build:.2} s, spawned in {:.2} s",
+                t.elapsed().as_secs_f64() - build
+            );
+            for mode in modes {
+                for parallel in [false, true] {
+                    app.configure(mode, parallel);
+                    app.step();
+                    let th = if parallel { threads } else { 1 };
+                    let mut phases: Vec<Phases> = Vec::new();
+                    let mut samples = bench_custom(
+                        &mut c,
+                        &format!("ours/n{n}/m{m}"),
+                        &format!("{}/{th}t", mode_name(mode)),
+                        || {
+                            let p = app.step();
+                            phases.push(p);
+                            p[0]
+                        },
+                    );
+                    let med = median(&mut samples);
+                    ours.insert((n, m, mode_name(mode), th), med);
+                    let (imp, sub, err) = app.outcome();
+                    if n == 10_000 || (n == ns[0]) {
+                        let mut cols: Vec<f64> = (1..6)
+                            .map(|k| {
+                                let mut v: Vec<f64> = phases.iter().map(|p| p[k]).collect();
+                                median(&mut v)
+                            })
+                            .collect();
+                        let sum: f64 = cols.iter().sum();
+                        cols.iter_mut().for_each(|x| *x *= 1e3);
+                        writeln!(
+                            phases_out,
+                            "| {n} | {m} | {} | {th} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {imp} | {sub} | {err} |",
+                            mode_name(mode),
+                            med * 1e3,
+                            cols[0],
+                            cols[1],
+                            cols[2],
+                            cols[3],
+                            cols[4],
+                            sum * 1e3,
+                        )
+                        .unwrap();
+                    }
+                }
+            }
+            {
+                let w = app.app.world();
+                let ws = w.resource::<CcdWorkspace>();
+                let comp = size_of::<bevy_ccd::plugin::Sweep>()
+                    + size_of::<TimeOfImpact>()
+                    + size_of::<CcdEnabled>();
+                writeln!(
+                    memory,
+                    "| {n} | {m} | {} | {} | {} | {} | {} |",
+                    size_of::<bevy_ccd::plugin::Sweep>(),
+                    size_of::<TimeOfImpact>(),
+                    size_of::<CcdEnabled>(),
+                    ws.bytes_per_body(),
+                    comp + ws.bytes_per_body()
+                )
+                .unwrap();
+            }
+            if n == 10_000 && m == 1_000 {
+                let k = Kernels::new(&lvl);
+                let cands = k.candidates();
+                let mean_c =
+                    cands.iter().map(Vec::len).sum::<usize>() as f64 / cands.len() as f64;
+                let mut q = bench_custom(&mut c, "kernels/n10000/m1000", "queries", || {
+                    k.time_queries()
+                });
+                let q = median(&mut q);
+                for mode in modes {
+                    let rm = match mode {
+                        Resolution::Clamp => ResolveMode::Clamp,
+                        Resolution::SubStep { max_substeps } => {
+                            ResolveMode::SubStep { max_substeps }
+                        }
+                    };
+                    let mut s = bench_custom(
+                        &mut c,
+                        "kernels/n10000/m1000",
+                        &format!("solve/{}", mode_name(mode)),
+                        || k.time_solve(&cands, rm),
+                    );
+                    let s = median(&mut s);
+                    let total = ours[&(n, m, mode_name(mode), 1)];
+                    writeln!(
+                        kernels_out,
+                        "| {} | {:.3} | {:.3} | {:.3} | {:.3} | {:.1} % | {mean_c:.2} |",
+                        mode_name(mode),
+                        total * 1e3,
+                        q * 1e3,
+                        s * 1e3,
+                        (total - q - s) * 1e3,
+                        100.0 * (total - q - s) / total
+                    )
+                    .unwrap();
+                }
+            }
+        }
+    }
+
+    writeln!(out, "\n### Ours: median time of one CCD step (ms) and per body (µs)\n").unwrap();
+    writeln!(out, "| N | M | mode | 1 thread ms | 2 threads ms | 1t µs/body | 2t µs/body | speed-up |").unwrap();
+    writeln!(out, "|---|---|---|---|---|---|---|---|").unwrap();
+    for &m in ms {
+        for &n in ns {
+            for mode in modes {
+                let a = ours[&(n, m, mode_name(mode), 1)];
+                let b = ours[&(n, m, mode_name(mode), threads)];
+                writeln!(
+                    out,
+                    "| {n} | {m} | {} | {:.3} | {:.3} | {:.3} | {:.3} | {:.2}x |",
+                    mode_name(mode),
+                    a * 1e3,
+                    b * 1e3,
+                    a * 1e6 / n as f64,
+                    b * 1e6 / n as f64,
+                    a / b
+                )
+                .unwrap();
+            }
+        }
+    }
+    writeln!(out, "\n### Ours: phases (medians, ms)\n").unwrap();
+    writeln!(out, "| N | M | mode | threads | step | record | broad phase | TOI | resolve | schedule | sum of phase medians | impacts | sub-steps | errors |").unwrap();
+    writeln!(out, "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|").unwrap();
+    out.push_str(&phases_out);
+    writeln!(out, "\n### Ours: geometry kernels alone vs the 1-thread step, N = 10k, M = 1k (ms)\n").unwrap();
+    writeln!(out, "| mode | plugin step (1 t) | BVH queries | solve_body (TOI + response) | rest = plugin overhead | overhead share | mean candidates/body |").unwrap();
+    writeln!(out, "|---|---|---|---|---|---|---|").unwrap();
+    out.push_str(&kernels_out);
+    writeln!(out, "\n### Memory kept per CCD body (bytes)\n").unwrap();
+    writeln!(out, "| N | M | Sweep | TimeOfImpact | CcdEnabled | workspace/body | total |").unwrap();
+    writeln!(out, "|---|---|---|---|---|---|---|").unwrap();
+    out.push_str(&memory);
+
+    // Peers.
+    let foundation = boxdd::Foundation::initialize_default().expect("box2d foundation");
+    writeln!(out, "\n### Peers: median full step (ms), CCD on vs off, 1 thread\n").unwrap();
+    writeln!(out, "| engine | N | M | step CCD off | step CCD on | CCD cost/body (µs) | ours clamp 1t µs/body | ours substep 1t µs/body | ours substep 2t µs/body |").unwrap();
+    writeln!(out, "|---|---|---|---|---|---|---|---|---|").unwrap();
+    let peer_ms: &[usize] = if quick { &[1_000] } else { &[1_000, 100_000] };
+    for &m in peer_ms {
+        for &n in &[1_000usize, 10_000] {
+            let lvl = level(n, m);
+            for engine in ["box2d", "rapier"] {
+                let mut med = [0.0; 2];
+                for (k, ccd) in [false, true].into_iter().enumerate() {
+                    let t = Instant::now();
+                    let mut peer: Box<dyn Peer> = match engine {
+                        "box2d" => Box::new(peers::box2d(&foundation, &lvl, ccd).expect("box2d")),
+                        _ => Box::new(peers::rapier(&lvl, ccd)),
+                    };
+                    // Let the broad phase settle once.
+                    peer.reset();
+                    peer.step();
+                    eprintln!("{engine} n={n} m={m} ccd={ccd}: built in {:.2} s", t.elapsed().as_secs_f64());
+                    let mut s = bench_custom(
+                        &mut c,
+                        &format!("{engine}/n{n}/m{m}"),
+                        if ccd { "ccd_on" } else { "ccd_off" },
+                        || {
+                            peer.reset();
+                            let t = Instant::now();
+                            peer.step();
+                            t.elapsed().as_secs_f64()
+                        },
+                    );
+                    med[k] = median(&mut s);
+                }
+                let per = (med[1] - med[0]) * 1e6 / n as f64;
+                let oc = ours.get(&(n, m, "clamp", 1)).map_or(f64::NAN, |x| x * 1e6 / n as f64);
+                let os = ours.get(&(n, m, "substep", 1)).map_or(f64::NAN, |x| x * 1e6 / n as f64);
+                let os2 = ours.get(&(n, m, "substep", threads)).map_or(f64::NAN, |x| x * 1e6 / n as f64);
+                writeln!(
+                    out,
+                    "| {engine} | {n} | {m} | {:.3} | {:.3} | {per:.3} | {oc:.3} | {os:.3} | {os2:.3} |",
+                    med[0] * 1e3,
+                    med[1] * 1e3,
+                )
+                .unwrap();
+            }
+        }
+    }
+    c.final_summary();
+    println!("\n{out}");
+    let dir = std::env::var("CARGO_TARGET_DIR").unwrap_or_else(|_| "target".into());
+    let _ = std::fs::write(format!("{dir}/scene-summary.md"), &out);
+}
