@@ -166,14 +166,7 @@ impl Ours {
         let b = t1.elapsed().as_secs_f64();
         let s = world.resource::<Stamps>().0.map(|s| s.expect("stamped"));
         let d = |i: usize, j: usize| (s[j] - s[i]).as_secs_f64();
-        [
-            a + b,
-            a + d(0, 1),
-            d(1, 2),
-            d(2, 3),
-            d(3, 4),
-            b - d(0, 4),
-        ]
+        [a + b, a + d(0, 1), d(1, 2), d(2, 3), d(3, 4), b - d(0, 4)]
     }
 
     /// Impacts and sub-steps of the last step.
@@ -221,13 +214,7 @@ impl Kernels {
                     inertia: props.inertia,
                     restitution: b.restitution,
                     friction: b.friction,
-                    sweep: geometry::Sweep::from_origins(
-                        props.center,
-                        b.position,
-                        b.angle,
-                        p1,
-                        a1,
-                    ),
+                    sweep: geometry::Sweep::from_origins(props.center, b.position, b.angle, p1, a1),
                     velocity: Some((b.velocity.linear, b.velocity.angular)),
                     core_radius: 0.25 * proxy.inner_radius(props.center),
                 }
@@ -306,6 +293,25 @@ mod peers {
         boxdd::Vec2::new(v.x, v.y)
     }
 
+    /// Box2D's hull drops points closer than 2 slops to a line, so 1 cm rectangles fail
+    /// `from_points`; they are centred rectangles, so build them as boxes then.
+    fn poly(
+        body: &mut boxdd::Body<'_>,
+        def: &boxdd::ShapeDef,
+        pts: &[Vec2],
+        radius: f32,
+    ) -> boxdd::Result<()> {
+        if body
+            .create_polygon_from_points(def, pts.iter().map(|p| bv(*p)), radius)
+            .is_err()
+        {
+            let hx = pts.iter().map(|p| p.x.abs()).fold(0.0, f32::max);
+            let hy = pts.iter().map(|p| p.y.abs()).fold(0.0, f32::max);
+            body.create_polygon(def, &boxdd::shapes::rounded_box_polygon(hx, hy, radius)?)?;
+        }
+        Ok(())
+    }
+
     pub fn box2d(f: &'static boxdd::Foundation, level: &Level, ccd: bool) -> boxdd::Result<Box2d> {
         use boxdd::{BodyBuilder, BodyType, Filter, Position, ShapeDef, WorldBuilder};
         let mut world = f.create_world(
@@ -338,9 +344,10 @@ mod peers {
                     .build()?,
             )?;
             let proxy = s.collider.proxy();
-            world.body(id)?.create_polygon_from_points(
+            poly(
+                &mut world.body(id)?,
                 &static_def,
-                proxy.points().iter().map(|p| bv(*p)),
+                proxy.points(),
                 proxy.radius,
             )?;
         }
@@ -373,20 +380,19 @@ mod peers {
             let mut body = world.body(id)?;
             match pts.len() {
                 1 => {
-                    body.create_circle(&def, &boxdd::shapes::Circle::new(bv(pts[0]), proxy.radius)?)?;
+                    body.create_circle(
+                        &def,
+                        &boxdd::shapes::Circle::new(bv(pts[0]), proxy.radius)?,
+                    )?;
                 }
                 2 => {
                     body.create_capsule_between(&def, bv(pts[0]), bv(pts[1]), proxy.radius)?;
                 }
                 _ => {
-                    body.create_polygon_from_points(
-                        &def,
-                        pts.iter().map(|p| bv(*p)),
-                        proxy.radius,
-                    )?;
+                    poly(&mut body, &def, pts, proxy.radius)?;
                 }
             }
-            drop(body);
+            let _ = body;
             bodies.push(id);
             start.push((b.position, b.angle, b.velocity.linear, b.velocity.angular));
         }
@@ -430,9 +436,9 @@ mod peers {
         let body_groups =
             InteractionGroups::new(Group::GROUP_1, Group::GROUP_2, InteractionTestMode::And);
         for s in &level.statics {
-            let h = world.bodies.insert(
-                RigidBodyBuilder::fixed().pose(Pose::new(rv(s.position), s.angle)),
-            );
+            let h = world
+                .bodies
+                .insert(RigidBodyBuilder::fixed().pose(Pose::new(rv(s.position), s.angle)));
             let points = s.collider.proxy().points().iter().map(|p| rv(*p)).collect();
             let c = ColliderBuilder::convex_polyline(points)
                 .expect("convex static")
@@ -549,8 +555,8 @@ fn main() {
     let ms: &[usize] = &[1_000, 100_000];
     let modes = [Resolution::Clamp, Resolution::SubStep { max_substeps: 4 }];
     let mut out = String::new();
-    let threads = bevy_tasks::ComputeTaskPool::get_or_init(bevy_tasks::TaskPool::default)
-        .thread_num();
+    let threads =
+        bevy_tasks::ComputeTaskPool::get_or_init(bevy_tasks::TaskPool::default).thread_num();
     writeln!(out, "compute task pool threads: {threads}").unwrap();
 
     // (n, m, mode, threads) -> median step seconds
@@ -632,8 +638,7 @@ fn main() {
             if n == 10_000 && m == 1_000 {
                 let k = Kernels::new(&lvl);
                 let cands = k.candidates();
-                let mean_c =
-                    cands.iter().map(Vec::len).sum::<usize>() as f64 / cands.len() as f64;
+                let mean_c = cands.iter().map(Vec::len).sum::<usize>() as f64 / cands.len() as f64;
                 let mut q = bench_custom(&mut c, "kernels/n10000/m1000", "queries", || {
                     k.time_queries()
                 });
@@ -669,8 +674,16 @@ fn main() {
         }
     }
 
-    writeln!(out, "\n### Ours: median time of one CCD step (ms) and per body (µs)\n").unwrap();
-    writeln!(out, "| N | M | mode | 1 thread ms | 2 threads ms | 1t µs/body | 2t µs/body | speed-up |").unwrap();
+    writeln!(
+        out,
+        "\n### Ours: median time of one CCD step (ms) and per body (µs)\n"
+    )
+    .unwrap();
+    writeln!(
+        out,
+        "| N | M | mode | 1 thread ms | 2 threads ms | 1t µs/body | 2t µs/body | speed-up |"
+    )
+    .unwrap();
     writeln!(out, "|---|---|---|---|---|---|---|---|").unwrap();
     for &m in ms {
         for &n in ns {
@@ -693,20 +706,37 @@ fn main() {
     }
     writeln!(out, "\n### Ours: phases (medians, ms)\n").unwrap();
     writeln!(out, "| N | M | mode | threads | step | record | broad phase | TOI | resolve | schedule | sum of phase medians | impacts | sub-steps | errors |").unwrap();
-    writeln!(out, "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|").unwrap();
+    writeln!(
+        out,
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+    )
+    .unwrap();
     out.push_str(&phases_out);
-    writeln!(out, "\n### Ours: geometry kernels alone vs the 1-thread step, N = 10k, M = 1k (ms)\n").unwrap();
+    writeln!(
+        out,
+        "\n### Ours: geometry kernels alone vs the 1-thread step, N = 10k, M = 1k (ms)\n"
+    )
+    .unwrap();
     writeln!(out, "| mode | plugin step (1 t) | BVH queries | solve_body (TOI + response) | rest = plugin overhead | overhead share | mean candidates/body |").unwrap();
     writeln!(out, "|---|---|---|---|---|---|---|").unwrap();
     out.push_str(&kernels_out);
     writeln!(out, "\n### Memory kept per CCD body (bytes)\n").unwrap();
-    writeln!(out, "| N | M | Sweep | TimeOfImpact | CcdEnabled | workspace/body | total |").unwrap();
+    writeln!(
+        out,
+        "| N | M | Sweep | TimeOfImpact | CcdEnabled | workspace/body | total |"
+    )
+    .unwrap();
     writeln!(out, "|---|---|---|---|---|---|---|").unwrap();
     out.push_str(&memory);
 
+    println!("\n{out}");
     // Peers.
     let foundation = boxdd::Foundation::initialize_default().expect("box2d foundation");
-    writeln!(out, "\n### Peers: median full step (ms), CCD on vs off, 1 thread\n").unwrap();
+    writeln!(
+        out,
+        "\n### Peers: median full step (ms), CCD on vs off, 1 thread\n"
+    )
+    .unwrap();
     writeln!(out, "| engine | N | M | step CCD off | step CCD on | CCD cost/body (µs) | ours clamp 1t µs/body | ours substep 1t µs/body | ours substep 2t µs/body |").unwrap();
     writeln!(out, "|---|---|---|---|---|---|---|---|---|").unwrap();
     let peer_ms: &[usize] = if quick { &[1_000] } else { &[1_000, 100_000] };
@@ -718,13 +748,16 @@ fn main() {
                 for (k, ccd) in [false, true].into_iter().enumerate() {
                     let t = Instant::now();
                     let mut peer: Box<dyn Peer> = match engine {
-                        "box2d" => Box::new(peers::box2d(&foundation, &lvl, ccd).expect("box2d")),
+                        "box2d" => Box::new(peers::box2d(foundation, &lvl, ccd).expect("box2d")),
                         _ => Box::new(peers::rapier(&lvl, ccd)),
                     };
                     // Let the broad phase settle once.
                     peer.reset();
                     peer.step();
-                    eprintln!("{engine} n={n} m={m} ccd={ccd}: built in {:.2} s", t.elapsed().as_secs_f64());
+                    eprintln!(
+                        "{engine} n={n} m={m} ccd={ccd}: built in {:.2} s",
+                        t.elapsed().as_secs_f64()
+                    );
                     let mut s = bench_custom(
                         &mut c,
                         &format!("{engine}/n{n}/m{m}"),
@@ -739,9 +772,15 @@ fn main() {
                     med[k] = median(&mut s);
                 }
                 let per = (med[1] - med[0]) * 1e6 / n as f64;
-                let oc = ours.get(&(n, m, "clamp", 1)).map_or(f64::NAN, |x| x * 1e6 / n as f64);
-                let os = ours.get(&(n, m, "substep", 1)).map_or(f64::NAN, |x| x * 1e6 / n as f64);
-                let os2 = ours.get(&(n, m, "substep", threads)).map_or(f64::NAN, |x| x * 1e6 / n as f64);
+                let oc = ours
+                    .get(&(n, m, "clamp", 1))
+                    .map_or(f64::NAN, |x| x * 1e6 / n as f64);
+                let os = ours
+                    .get(&(n, m, "substep", 1))
+                    .map_or(f64::NAN, |x| x * 1e6 / n as f64);
+                let os2 = ours
+                    .get(&(n, m, "substep", threads))
+                    .map_or(f64::NAN, |x| x * 1e6 / n as f64);
                 writeln!(
                     out,
                     "| {engine} | {n} | {m} | {:.3} | {:.3} | {per:.3} | {oc:.3} | {os:.3} | {os2:.3} |",

@@ -28,9 +28,13 @@
 //! One criterion group per family (`toi-<family>`), with the functions `ours`, `box2d` and
 //! `parry`; one iteration runs every case of the family through that implementation. The
 //! table's *ns/call* is criterion's median iteration time divided by the number of cases
-//! timed. Where criterion has no estimate from this run (`cargo test --benches`, a filter
-//! that skipped the group, `--profile-time`), it is the median of a few self-timed passes
-//! instead, and the table says so.
+//! timed ("–" where criterion did not measure in this run: `cargo test --benches`, a filter
+//! that skipped the group, `--profile-time`).
+//!
+//! Criterion measures the three one after the other, seconds apart, so on a busy machine
+//! their ratio follows the load of the moment. The table therefore also gives the median
+//! over *interleaved* rounds (one pass of each implementation per round, the order rotating),
+//! in which the three share whatever load there is; see [`interleaved`].
 //!
 //! # The table
 //!
@@ -341,8 +345,10 @@ struct Tally {
     wrong: Vec<String>,
     /// Cases timed.
     timed: usize,
-    /// Median time per call (ns) and where it comes from.
-    ns_per_call: Option<(f64, Timing)>,
+    /// Median time per call (ns) by criterion, when it measured in this run.
+    criterion_ns: Option<f64>,
+    /// Median time per call (ns) from the interleaved rounds.
+    interleaved_ns: Option<f64>,
 }
 
 impl Tally {
@@ -389,13 +395,34 @@ impl Tally {
     }
 }
 
-/// Where a time per call comes from.
-#[derive(Clone, Copy)]
-enum Timing {
-    /// Criterion's median of this run.
+/// Which measurement a time per call comes from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Clock {
+    /// Criterion's median, each implementation measured on its own.
     Criterion,
-    /// The median of this many self-timed passes.
-    SelfTimed(usize),
+    /// The median over rounds that run every implementation in turn (see [`interleaved`]).
+    Interleaved,
+}
+
+impl Clock {
+    const ALL: [Clock; 2] = [Clock::Criterion, Clock::Interleaved];
+
+    fn name(self) -> &'static str {
+        match self {
+            Clock::Criterion => "criterion",
+            Clock::Interleaved => "interleaved",
+        }
+    }
+}
+
+impl Tally {
+    /// The median time per call (ns) by the given clock.
+    fn ns(&self, clock: Clock) -> Option<f64> {
+        match clock {
+            Clock::Criterion => self.criterion_ns,
+            Clock::Interleaved => self.interleaved_ns,
+        }
+    }
 }
 
 /// Our own counters, summed over a family.
@@ -523,8 +550,6 @@ struct RunMode {
     measuring: bool,
     /// `--list`: criterion only lists the benchmarks; no table.
     listing: bool,
-    /// `cargo test --benches` or `--test`: one quick pass each.
-    testing: bool,
 }
 
 impl RunMode {
@@ -537,7 +562,6 @@ impl RunMode {
         RunMode {
             measuring: !testing && !listing && !profiling,
             listing,
-            testing,
         }
     }
 }
@@ -580,18 +604,39 @@ fn criterion_median(group: &str, function: &str, since: SystemTime) -> Option<f6
         .filter(|ns| ns.is_finite() && *ns > 0.0)
 }
 
-/// The median time (ns) of `passes` runs of `f`, after one warm-up run.
-fn self_timed_median(passes: usize, mut f: impl FnMut()) -> f64 {
-    f();
-    let mut times: Vec<f64> = (0..passes)
-        .map(|_| {
-            let start = Instant::now();
-            f();
-            start.elapsed().as_secs_f64() * 1e9
-        })
+/// Times the implementations against each other: rounds of one pass of each, in an order
+/// that rotates every round, after one warm-up round, until `budget` has passed and at least
+/// `min_rounds` were run. Machine load then falls on all of them alike, which keeps their
+/// ratios steady on a busy machine where criterion measures each one seconds apart. Returns
+/// the median time per call (ns) of each implementation that has cases to time.
+fn interleaved(family: &Family<'_>, min_rounds: usize, budget: Duration) -> BTreeMap<Engine, f64> {
+    let engines: Vec<Engine> = Engine::ALL
+        .into_iter()
+        .filter(|e| family.tallies[e].timed > 0)
         .collect();
-    times.sort_by(f64::total_cmp);
-    times[times.len() / 2]
+    let mut times: BTreeMap<Engine, Vec<f64>> = engines.iter().map(|&e| (e, Vec::new())).collect();
+    for &engine in &engines {
+        family.pass(engine);
+    }
+    let start = Instant::now();
+    let mut round = 0;
+    while round < min_rounds || start.elapsed() < budget {
+        for k in 0..engines.len() {
+            let engine = engines[(round + k) % engines.len()];
+            let pass = Instant::now();
+            family.pass(engine);
+            let ns = pass.elapsed().as_secs_f64() * 1e9;
+            times.entry(engine).or_default().push(ns);
+        }
+        round += 1;
+    }
+    times
+        .into_iter()
+        .filter_map(|(engine, t)| {
+            let per_call = median(&t)? / family.tallies[&engine].timed as f64;
+            Some((engine, per_call))
+        })
+        .collect()
 }
 
 fn group_name(family: &str) -> String {
@@ -615,26 +660,20 @@ fn bench_family(c: &mut Criterion, family: &mut Family<'_>, mode: &RunMode, sinc
         }
         g.finish();
     }
-    let passes = if mode.testing { 3 } else { 21 };
     for engine in Engine::ALL {
         let timed = family.tallies[&engine].timed;
-        if timed == 0 {
-            continue;
+        if mode.measuring && timed > 0 {
+            let ns = criterion_median(&group, engine.name(), since);
+            family.tally(engine).criterion_ns = ns.map(|ns| ns / timed as f64);
         }
-        let per_call = |ns_per_pass: f64| ns_per_pass / timed as f64;
-        let measured = mode
-            .measuring
-            .then(|| criterion_median(&group, engine.name(), since))
-            .flatten()
-            .map(|ns| (per_call(ns), Timing::Criterion));
-        let ns = measured.unwrap_or_else(|| {
-            let f: &Family<'_> = family;
-            (
-                per_call(self_timed_median(passes, || f.pass(engine))),
-                Timing::SelfTimed(passes),
-            )
-        });
-        family.tally(engine).ns_per_call = Some(ns);
+    }
+    let (min_rounds, budget) = if mode.measuring {
+        (31, Duration::from_secs(2))
+    } else {
+        (3, Duration::ZERO)
+    };
+    for (engine, ns) in interleaved(family, min_rounds, budget) {
+        family.tally(engine).interleaved_ns = Some(ns);
     }
 }
 
@@ -648,12 +687,8 @@ fn median(values: &[f64]) -> Option<f64> {
     (!v.is_empty()).then(|| v[v.len() / 2])
 }
 
-fn fmt_ns(ns: Option<(f64, Timing)>) -> String {
-    match ns {
-        Some((ns, Timing::Criterion)) => format!("{ns:.0}"),
-        Some((ns, Timing::SelfTimed(passes))) => format!("{ns:.0} (self, {passes} passes)"),
-        None => "–".into(),
-    }
+fn fmt_ns(ns: Option<f64>) -> String {
+    ns.map_or_else(|| "–".into(), |ns| format!("{ns:.0}"))
 }
 
 fn fmt_len(m: Option<f64>) -> String {
@@ -663,13 +698,13 @@ fn fmt_len(m: Option<f64>) -> String {
 /// A peer and its time per call (ns).
 type Peer = Option<(Engine, f64)>;
 
-/// The fastest peer that got the family right, and the fastest peer at all.
-fn fastest_peers(family: &Family<'_>) -> (Peer, Peer) {
+/// The fastest peer that got the family right, and the fastest peer at all, by `clock`.
+fn fastest_peers(family: &Family<'_>, clock: Clock) -> (Peer, Peer) {
     let mut right = None;
     let mut any = None;
     for engine in [Engine::Box2d, Engine::Parry] {
         let tally = &family.tallies[&engine];
-        let Some((ns, _)) = tally.ns_per_call else {
+        let Some(ns) = tally.ns(clock) else {
             continue;
         };
         let better = |best: Peer| best.is_none_or(|(_, b)| ns < b);
@@ -683,16 +718,27 @@ fn fastest_peers(family: &Family<'_>) -> (Peer, Peer) {
     (right, any)
 }
 
-fn ratio(family: &Family<'_>, peer: Peer) -> Option<(f64, Engine)> {
-    let (ours, _) = family.tallies[&Engine::Ours].ns_per_call?;
+/// Ours over a peer's time per call, by `clock`.
+fn ratio(family: &Family<'_>, peer: Peer, clock: Clock) -> Option<(f64, Engine)> {
+    let ours = family.tallies[&Engine::Ours].ns(clock)?;
     peer.map(|(engine, ns)| (ours / ns, engine))
 }
 
+/// Whether a ratio to the fastest right peer meets [`RATIO_TARGET`], and by how much not.
+fn fmt_target(r: Option<(f64, Engine)>) -> String {
+    match r {
+        Some((r, _)) if r <= RATIO_TARGET => "met".into(),
+        Some((r, _)) => format!(
+            "missed by {:.2} (needs {:.0}% less time)",
+            r - RATIO_TARGET,
+            (1.0 - RATIO_TARGET / r) * 100.0
+        ),
+        None => "no right peer".into(),
+    }
+}
+
 fn fmt_ratio(r: Option<(f64, Engine)>) -> String {
-    r.map_or_else(
-        || "– (none)".into(),
-        |(r, e)| format!("{r:.2} ({})", e.name()),
-    )
+    r.map_or_else(|| "none".into(), |(r, e)| format!("{r:.2} ({})", e.name()))
 }
 
 fn family_table(out: &mut String, family: &Family<'_>) {
@@ -701,9 +747,13 @@ fn family_table(out: &mut String, family: &Family<'_>) {
     let _ = writeln!(
         out,
         "| impl | model | correct | miss | late | early | ghost | failed | unsupported \
-         | median \\|d\\| at hits (m) | max \\|d\\| (m) | ns/call (median) | right |"
+         | median \\|d\\| at hits (m) | max \\|d\\| (m) | ns/call criterion \
+         | ns/call interleaved | right |"
     );
-    let _ = writeln!(out, "|---|---|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|:-:|");
+    let _ = writeln!(
+        out,
+        "|---|---|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|:-:|"
+    );
     for engine in Engine::ALL {
         let t = &family.tallies[&engine];
         let counts: Vec<String> = VERDICTS.iter().map(|&v| t.count(v).to_string()).collect();
@@ -714,14 +764,15 @@ fn family_table(out: &mut String, family: &Family<'_>) {
             .fold(None, |m: Option<f64>, d| Some(m.map_or(d, |m| m.max(d))));
         let _ = writeln!(
             out,
-            "| {} | {} | {} | {} | {} | {} | {} | {} |",
+            "| {} | {} | {} | {} | {} | {} | {} | {} | {} |",
             engine.name(),
             engine.model().name(),
             counts.join(" | "),
             t.unsupported,
             fmt_len(median(&t.abs_d)),
             fmt_len(max_d),
-            fmt_ns(t.ns_per_call),
+            fmt_ns(t.criterion_ns),
+            fmt_ns(t.interleaved_ns),
             if t.right() { "yes" } else { "no" },
         );
     }
@@ -759,13 +810,19 @@ fn family_table(out: &mut String, family: &Family<'_>) {
         per(s.root_iterations),
         per(s.certify_evaluations),
     );
-    let (right, any) = fastest_peers(family);
-    let _ = writeln!(
-        out,
-        "ours / fastest right peer: {}; ours / fastest peer: {}.",
-        fmt_ratio(ratio(family, right)),
-        fmt_ratio(ratio(family, any)),
-    );
+    for clock in Clock::ALL {
+        if family.tallies[&Engine::Ours].ns(clock).is_none() {
+            continue;
+        }
+        let (right, any) = fastest_peers(family, clock);
+        let _ = writeln!(
+            out,
+            "{}: ours / fastest right peer {}; ours / fastest peer {}.",
+            clock.name(),
+            fmt_ratio(ratio(family, right, clock)),
+            fmt_ratio(ratio(family, any, clock)),
+        );
+    }
     for note in notes {
         let _ = writeln!(out, "{note}.");
     }
@@ -782,29 +839,26 @@ fn family_table(out: &mut String, family: &Family<'_>) {
 fn summary_table(out: &mut String, families: &[Family<'_>]) {
     let _ = writeln!(
         out,
-        "| family | cases | ours ns/call | box2d ns/call | parry ns/call | right (ours/box2d/parry) \
-         | ours / fastest right peer | ours / fastest peer | target <= {RATIO_TARGET} |"
+        "| family | cases | ours ns/call | box2d ns/call | parry ns/call \
+         | right (ours/box2d/parry) | ours / fastest right peer | ours / fastest peer \
+         | target <= {RATIO_TARGET} |"
     );
     let _ = writeln!(out, "|---|--:|--:|--:|--:|:-:|--:|--:|:-:|");
     for family in families {
-        let ns = |e: Engine| fmt_ns(family.tallies[&e].ns_per_call);
+        // "criterion (interleaved)" in every timed cell.
+        let both = |f: &dyn Fn(Clock) -> String| {
+            format!("{} ({})", f(Clock::Criterion), f(Clock::Interleaved))
+        };
+        let ns = |e: Engine| both(&|c| fmt_ns(family.tallies[&e].ns(c)));
         let right: Vec<&str> = Engine::ALL
             .iter()
             .map(|e| if family.tallies[e].right() { "y" } else { "n" })
             .collect();
-        let (right_peer, any_peer) = fastest_peers(family);
-        let to_right = ratio(family, right_peer);
-        let verdict = match to_right {
-            Some((r, _)) if r <= RATIO_TARGET => "met".to_string(),
-            Some((r, _)) => {
-                format!(
-                    "missed by {:.2} (needs {:.0}% less time)",
-                    r - RATIO_TARGET,
-                    (1.0 - RATIO_TARGET / r) * 100.0
-                )
-            }
-            None => "no right peer".to_string(),
-        };
+        // A clock that did not measure ours in this run leaves its cells empty.
+        let measured = |c: Clock| family.tallies[&Engine::Ours].ns(c).is_some();
+        let or_dash = |c: Clock, cell: String| if measured(c) { cell } else { "–".into() };
+        let to_right = |c: Clock| ratio(family, fastest_peers(family, c).0, c);
+        let to_any = |c: Clock| ratio(family, fastest_peers(family, c).1, c);
         let _ = writeln!(
             out,
             "| {} | {} | {} | {} | {} | {} | {} | {} | {} |",
@@ -814,9 +868,9 @@ fn summary_table(out: &mut String, families: &[Family<'_>]) {
             ns(Engine::Box2d),
             ns(Engine::Parry),
             right.join("/"),
-            fmt_ratio(to_right),
-            fmt_ratio(ratio(family, any_peer)),
-            verdict,
+            both(&|c| or_dash(c, fmt_ratio(to_right(c)))),
+            both(&|c| or_dash(c, fmt_ratio(to_any(c)))),
+            both(&|c| or_dash(c, fmt_target(to_right(c)))),
         );
     }
     let _ = writeln!(out);
@@ -830,13 +884,20 @@ fn report(families: &[Family<'_>], mode: &RunMode) -> String {
     );
     let _ = writeln!(
         out,
-        "ns/call: criterion's median time for all the family's cases / cases timed{}. \
+        "ns/call: the median time to run all of a family's cases, divided by the cases timed, \
+         by criterion (each implementation measured on its own{}) and, in parentheses, over \
+         interleaved rounds of one pass of each implementation ({} per family). \
          Right: no miss, no failure, no unsupported case. Each result is scored against the \
          reference of the model it follows (ours, parry: angle; box2d: nlerp).\n",
         if mode.measuring {
             ""
         } else {
-            " (no criterion estimates in this mode: self-timed)"
+            "; not measured in this mode"
+        },
+        if mode.measuring {
+            "at least 2 s and 31 rounds"
+        } else {
+            "3 rounds"
         },
     );
     summary_table(&mut out, families);

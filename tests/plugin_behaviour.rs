@@ -6,7 +6,7 @@
 //! 3. a ball bouncing between two walls at 500 m/s keeps its speed in sub-step mode (and
 //!    loses travel in clamp mode);
 //! 4. a body sliding on a floor under gravity keeps its tangential speed in sub-step mode and
-//!    loses distance in clamp mode (a ball passes; the box is ignored: a known bug);
+//!    loses distance in clamp mode (a ball and a box);
 //! 5. results are bit-identical between runs, and between one thread and two;
 //! 6. bodies that start a step overlapping a wall (shallowly or deeply) may leave it but not
 //!    sink deeper, and are never frozen;
@@ -798,9 +798,6 @@ fn check_slide(name: &str, collider: Collider, half_height: f32) {
 }
 
 #[test]
-#[ignore = "bug: a box resting on a floor gets each impulse at one point of its face, so it \
-            rocks, sinks through the lowered bands until its core is ~1e-4 m from the floor and \
-            is then stopped at fraction 0 every step (0.73 m of 50 m in sub-step mode)"]
 fn substep_keeps_a_sliding_box_at_speed() {
     check_slide(
         "box",

@@ -333,9 +333,23 @@ pub fn shape_distance(input: &DistanceInput<'_>, cache: &mut SimplexCache) -> Di
     *cache = simplex.cache();
     let delta = local_b - local_a;
     let mut distance = delta.length();
+    let edge_normal = if simplex.count == 2 {
+        // Vertex–edge: the normal is perpendicular to the simplex edge. Taking it from the
+        // edge rather than from the difference of the witness points avoids the cancellation
+        // of two nearly equal points far from A's origin (a long floor): the difference of
+        // two interpolated points carries their rounding, the edge direction does not.
+        let n = left_perp(simplex.v[1].w - simplex.v[0].w).normalize_or_zero();
+        if n.dot(simplex.v[0].w) < 0.0 { -n } else { n }
+    } else {
+        Vec2::ZERO
+    };
     let local_normal = if simplex.count == 3 {
         distance = 0.0;
         Vec2::ZERO
+    } else if edge_normal != Vec2::ZERO && distance > f32::EPSILON {
+        // The distance along that normal is exact up to one rounding of the support point.
+        distance = edge_normal.dot(simplex.v[0].w).max(0.0);
+        edge_normal
     } else if distance > f32::EPSILON {
         delta / distance
     } else {

@@ -225,7 +225,14 @@ fn pair_toi(body: &BodyState, sweep: &Sweep, target: &StaticItem, slop: f32) -> 
             // Moving apart or exactly along, without turning: the core distance along a
             // straight line to a convex set is convex in time and does not decrease at the
             // start, so it never decreases. Nothing to stop, however deep the start.
-            if sweep.a0 == sweep.a1 && !approaching(sweep, out.point, out.normal, 0.0) {
+            // A turn so small that no point of the body moves by more than a hundredth of
+            // the tolerance (rounding leaves such spins behind) counts as none: the distance
+            // can then shrink by no more than that over the whole sweep.
+            let turn =
+                sweep.angular_motion().abs() * body.proxy.max_distance_from(body.local_center);
+            if turn <= 0.01 * separation_tolerance(slop)
+                && !approaching(sweep, out.point, out.normal, 0.0)
+            {
                 return PairOutcome::Clear { overlapping };
             }
             // Turning: search the rest of the sweep with a band lowered below the start, so
@@ -338,6 +345,122 @@ fn exit_face(target: &StaticItem, point: Vec2) -> Option<(Vec2, f32)> {
         })
         .max_by(|a, b| a.1.total_cmp(&b.1))?;
     (normal != Vec2::ZERO).then(|| (pose.q.rotate(normal), -distance))
+}
+
+/// The point at which the response acts: the middle of the contact patch.
+///
+/// Time of impact gives one closest point; when two faces meet flat (a box landing on a
+/// floor) that point is one end of the touching edge, and an impulse there would set the box
+/// rocking on every step. A two-point manifold (Box2D) avoids that; with one impulse, the same
+/// effect comes from acting at the middle of the patch: the features of both shapes within
+/// `slop` of the contact plane are projected on the tangent, and the middle of the overlap
+/// of the two intervals is taken (the closest point when they do not overlap, or for
+/// vertex contacts, where the patch is that point).
+fn contact_patch(
+    proxy: &ShapeProxy,
+    pose: Pose,
+    target: &StaticItem,
+    normal: Vec2,
+    point: Vec2,
+    slop: f32,
+) -> (Vec2, Vec2) {
+    let tangent = left_perp(normal);
+    // Tangent extent of the core points of `p` at `pose` that lie within `slop` of its
+    // support along `dir`.
+    let extent = |p: &ShapeProxy, pose: Pose, dir: Vec2| {
+        let local = pose.q.inv_rotate(dir);
+        let top = p
+            .points()
+            .iter()
+            .map(|v| local.dot(*v))
+            .fold(f32::NEG_INFINITY, f32::max);
+        p.points()
+            .iter()
+            .filter(|v| local.dot(**v) >= top - slop)
+            .map(|v| tangent.dot(pose.transform_point(*v)))
+            .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), x| {
+                (lo.min(x), hi.max(x))
+            })
+    };
+    let (body_lo, body_hi) = extent(proxy, pose, normal);
+    let target_pose = Pose::new(target.position, target.angle);
+    let (target_lo, target_hi) = extent(&target.proxy, target_pose, -normal);
+    let lo = body_lo.max(target_lo);
+    let hi = body_hi.min(target_hi);
+    if lo.is_nan() || hi.is_nan() || lo > hi {
+        return (point, point);
+    }
+    let base = tangent.dot(point);
+    (point + (lo - base) * tangent, point + (hi - base) * tangent)
+}
+
+/// The response at a contact patch with ends `r.0` and `r.1` (from the centre of mass): two
+/// normal impulses, one per end, found like Box2D's block solver. With
+/// `k_ij = 1/m + (r_i × n)(r_j × n) / I`, the impulses `j` make each end's normal speed
+/// `vn_i + k_i1 j1 + k_i2 j2` equal to `-e vn_i` (approaching ends) or 0; the 2×2 system is
+/// solved with both impulses active, then with one, keeping the first solution whose impulses
+/// are not negative and whose ends do not approach. A single impulse at the middle of a flat
+/// patch would turn a body whose face is tilted by a hair (its face's middle is then off its
+/// centre) a little further at every contact: a box sliding on a floor would start rocking.
+/// Friction acts at the middle of the patch, bounded by the total normal impulse.
+fn patch_response(
+    velocity: (Vec2, f32),
+    r: (Vec2, Vec2),
+    normal: Vec2,
+    (mass, inertia): (f32, f32),
+    restitution: f32,
+    friction: f32,
+) -> (Vec2, f32) {
+    let mid = 0.5 * (r.0 + r.1);
+    if (r.1 - r.0).length_squared() <= 1e-12 * (1.0 + mid.length_squared()) {
+        return contact_response(velocity, mid, normal, mass, inertia, restitution, friction);
+    }
+    let (v, w) = velocity;
+    let inv_m = 1.0 / mass;
+    let inv_i = 1.0 / inertia;
+    let vn = |r: Vec2| (v + w * left_perp(r)).dot(normal);
+    let (vn1, vn2) = (vn(r.0), vn(r.1));
+    if vn1 >= 0.0 && vn2 >= 0.0 {
+        return velocity;
+    }
+    let target = |vn: f32| if vn < 0.0 { -restitution * vn } else { 0.0 };
+    let (b1, b2) = (target(vn1) - vn1, target(vn2) - vn2);
+    let (rn1, rn2) = (cross(r.0, normal), cross(r.1, normal));
+    let k11 = inv_m + rn1 * rn1 * inv_i;
+    let k22 = inv_m + rn2 * rn2 * inv_i;
+    let k12 = inv_m + rn1 * rn2 * inv_i;
+    let det = k11 * k22 - k12 * k12;
+    let mut impulses = None;
+    if det > 1e-9 * k11 * k22 {
+        let j1 = (k22 * b1 - k12 * b2) / det;
+        let j2 = (k11 * b2 - k12 * b1) / det;
+        if j1 >= 0.0 && j2 >= 0.0 {
+            impulses = Some((j1, j2));
+        }
+    }
+    if impulses.is_none() {
+        let j1 = (b1 / k11).max(0.0);
+        let j2 = (b2 / k22).max(0.0);
+        if vn2 + k12 * j1 >= 0.0 && j1 > 0.0 {
+            impulses = Some((j1, 0.0));
+        } else if vn1 + k12 * j2 >= 0.0 && j2 > 0.0 {
+            impulses = Some((0.0, j2));
+        }
+    }
+    let Some((j1, j2)) = impulses else {
+        return contact_response(velocity, mid, normal, mass, inertia, restitution, friction);
+    };
+    let mut v = v + (j1 + j2) * inv_m * normal;
+    let mut w = w + (rn1 * j1 + rn2 * j2) * inv_i;
+    // Coulomb friction at the middle of the patch.
+    let tangent = left_perp(normal);
+    let rt = cross(mid, tangent);
+    let vt = (v + w * left_perp(mid)).dot(tangent);
+    let bound = friction * (j1 + j2);
+    let jt = (-vt / (inv_m + rt * rt * inv_i)).clamp(-bound, bound);
+    v += jt * inv_m * tangent;
+    w += rt * jt * inv_i;
+    (v, w)
 }
 
 /// The impulse response at a contact against an immovable target.
@@ -468,12 +591,19 @@ pub fn solve_body(
         });
         let center = sweep.center_at(fraction);
         let angle = sweep.angle_at(fraction);
-        velocity = contact_response(
+        let (patch_a, patch_b) = contact_patch(
+            &body.proxy,
+            sweep.pose_at(fraction),
+            &statics.items[index as usize],
+            normal,
+            point,
+            slop,
+        );
+        velocity = patch_response(
             velocity,
-            point - center,
+            (patch_a - center, patch_b - center),
             outward,
-            body.mass,
-            body.inertia,
+            (body.mass, body.inertia),
             body.restitution,
             body.friction,
         );

@@ -370,7 +370,8 @@ pub fn generate_level(config: &LevelConfig) -> Level {
     let side = (inner as f64).sqrt().ceil().max(1.0) as usize;
     let c = config.cell;
     let h = 0.5 * c * side as f32;
-    let t = 0.005;
+    // 1 cm outer walls, thicker on huge levels so that the rectangle stays well conditioned.
+    let t = (h * 1e-4).max(0.005);
     let mut statics = Vec::with_capacity(config.statics.max(4));
     let wall = |hx: f32, hy: f32| Collider::rectangle(hx, hy).expect("wall size is valid");
     for (collider, position) in [
@@ -387,19 +388,20 @@ pub fn generate_level(config: &LevelConfig) -> Level {
     }
     for i in 0..inner {
         let (col, row) = (i % side, i / side);
-        let center = Vec2::new(
-            -h + c * (col as f32 + 0.5),
-            -h + c * (row as f32 + 0.5),
-        );
+        let center = Vec2::new(-h + c * (col as f32 + 0.5), -h + c * (row as f32 + 0.5));
         let (collider, angle) = match rng.next_u64() % 3 {
             // A thin wall (1 to 10 cm thick), horizontal or vertical.
             0 => {
                 let half = rng.range(0.3, 0.48) * c;
                 let thick = rng.range(0.005, 0.05);
-                let vertical = rng.next_u64() % 2 == 0;
+                let vertical = rng.next_u64().is_multiple_of(2);
                 (
                     Collider::rectangle(half, thick),
-                    if vertical { core::f32::consts::FRAC_PI_2 } else { 0.0 },
+                    if vertical {
+                        core::f32::consts::FRAC_PI_2
+                    } else {
+                        0.0
+                    },
                 )
             }
             // A box at any angle.

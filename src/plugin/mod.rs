@@ -143,7 +143,10 @@ pub enum CcdSystems {
 pub enum Resolution {
     /// The body's pose becomes its pose at the impact (at the target separation); the rest of
     /// the step's motion is dropped. Its velocity (if it keeps a [`Velocity`]) still gets the
-    /// impact response, so next step it moves away or along.
+    /// impact response. A body resting on a surface under gravity is hit at the start of every
+    /// step and so does not move at all in this mode (measured: 0 m of 50 m when sliding at
+    /// 10 m/s; a ball bouncing between walls travels 59 % of the sub-stepped distance): use
+    /// `SubStep` for sliding and bouncing.
     Clamp,
     /// Advance to the impact, respond with an impulse (restitution, friction, mass and
     /// inertia), spend the remaining fraction of the step from there with a new sweep, search
