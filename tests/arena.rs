@@ -17,6 +17,7 @@ struct RunStats {
     first_escape_step: Option<usize>,
     worst_penetration: f32,
     impacts: u64,
+    failed: u64,
 }
 
 fn run(resolution: Resolution, ccd: bool, steps: usize, check: bool) -> RunStats {
@@ -40,12 +41,17 @@ fn run(resolution: Resolution, ccd: bool, steps: usize, check: bool) -> RunStats
         first_escape_step: None,
         worst_penetration: 0.0,
         impacts: 0,
+        failed: 0,
     };
     for step in 0..steps {
         app.step_fixed(1);
         let world = app.world_mut();
         let mut q = world.query::<&TimeOfImpact>();
         stats.impacts += q.iter(world).map(|t| t.impacts as u64).sum::<u64>();
+        stats.failed += q
+            .iter(world)
+            .filter(|t| t.status == CcdStatus::Error)
+            .count() as u64;
         if check || step + 1 == steps {
             let outside = bodies_outside(world, bounds);
             if !outside.is_empty() && stats.first_escape_step.is_none() {
@@ -92,6 +98,7 @@ fn arena_clamp_contains_every_body() {
     );
     assert_eq!(s.escaped_at_end, 0);
     assert!(s.impacts > 1000);
+    assert_eq!(s.failed, 0, "failed states in the arena");
 }
 
 #[test]

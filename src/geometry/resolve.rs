@@ -460,6 +460,14 @@ fn patch_response(
     let jt = (-vt / (inv_m + rt * rt * inv_i)).clamp(-bound, bound);
     v += jt * inv_m * tangent;
     w += rt * jt * inv_i;
+    // Simultaneous restitution at two points can add energy (a spinning body whose ends
+    // approach at different speeds); a single impulse with `e <= 1` never does. Fall back to
+    // one impulse at the end that approaches fastest whenever the pair would gain energy.
+    let energy = |v: Vec2, w: f32| mass * v.length_squared() + inertia * w * w;
+    if energy(v, w) > energy(velocity.0, velocity.1) * (1.0 + 1e-5) {
+        let end = if vn1 <= vn2 { r.0 } else { r.1 };
+        return contact_response(velocity, end, normal, mass, inertia, restitution, friction);
+    }
     (v, w)
 }
 
@@ -469,9 +477,10 @@ fn patch_response(
 /// the body and `t = perp(n)`, the contact point moves at `v_c = v + w perp(r)`. When it
 /// approaches (`vn = v_c·n < 0`) the normal impulse that makes the new normal speed
 /// `-e vn` is `jn = -(1 + e) vn / (1/m + (r × n)² / I)` (the effective mass of the contact
-/// along `n`); the tangential impulse that would stop sliding is
-/// `jt = -(v_c·t) / (1/m + (r × t)² / I)`, clamped to `|jt| <= mu jn` (Coulomb). Then
-/// `v += (jn n + jt t) / m` and `w += r × (jn n + jt t) / I`.
+/// along `n`), applied first: `v += jn n / m`, `w += (r × n) jn / I`. Then, from the new
+/// sliding speed `v_t`, the tangential impulse that would stop sliding,
+/// `jt = -v_t / (1/m + (r × t)² / I)`, clamped to `|jt| <= mu jn` (Coulomb). Each impulse on
+/// its own cannot add energy when `e <= 1`.
 pub fn contact_response(
     velocity: (Vec2, f32),
     r: Vec2,
@@ -491,12 +500,16 @@ pub fn contact_response(
     let inv_i = 1.0 / inertia;
     let rn = cross(r, normal);
     let jn = -(1.0 + restitution) * vn / (inv_m + rn * rn * inv_i);
+    let v = v + jn * inv_m * normal;
+    let w = w + rn * jn * inv_i;
+    // Friction after the normal impulse, from the sliding speed it leaves: the normal impulse
+    // also turns the body, which changes the sliding speed at the contact, and friction
+    // computed from the speed before it could overshoot and add energy.
     let tangent = left_perp(normal);
     let rt = cross(r, tangent);
-    let vt = vc.dot(tangent);
+    let vt = (v + w * left_perp(r)).dot(tangent);
     let jt = (-vt / (inv_m + rt * rt * inv_i)).clamp(-friction * jn, friction * jn);
-    let impulse = jn * normal + jt * tangent;
-    (v + impulse * inv_m, w + cross(r, impulse) * inv_i)
+    (v + jt * inv_m * tangent, w + rt * jt * inv_i)
 }
 
 /// Sweeps one body against the static world and resolves its impacts.
