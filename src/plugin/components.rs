@@ -32,6 +32,9 @@ pub struct Collider {
     shape: Shape,
     offset: Vec2,
     proxy: ShapeProxy,
+    /// Mass properties at unit density (entity frame), computed once: the plugin needs them
+    /// for every body every step.
+    unit_mass: MassProperties,
 }
 
 impl Collider {
@@ -42,6 +45,7 @@ impl Collider {
             shape,
             offset: Vec2::ZERO,
             proxy: shape.proxy(),
+            unit_mass: shape.mass_properties(1.0),
         }
     }
 
@@ -84,6 +88,7 @@ impl Collider {
             .map(|p| *p + offset)
             .collect();
         self.proxy = ShapeProxy::new(&points, self.proxy.radius)?;
+        self.unit_mass.center = self.shape.mass_properties(1.0).center + offset;
         Ok(self)
     }
 
@@ -104,9 +109,11 @@ impl Collider {
 
     /// Mass properties at `density` (kg/m²), centre in the entity frame.
     pub fn mass_properties(&self, density: f32) -> MassProperties {
-        let mut m = self.shape.mass_properties(density);
-        m.center += self.offset;
-        m
+        MassProperties {
+            mass: self.unit_mass.mass * density,
+            center: self.unit_mass.center,
+            inertia: self.unit_mass.inertia * density,
+        }
     }
 }
 

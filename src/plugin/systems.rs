@@ -296,7 +296,10 @@ pub(crate) fn gather_bodies(
             candidates: SmallVec::new(),
         });
     }
-    workspace.bodies.sort_by_key(|b| b.entity);
+    // Query order already follows the tables, usually in entity order: sort only if needed.
+    if !workspace.bodies.is_sorted_by_key(|b| b.entity) {
+        workspace.bodies.sort_by_key(|b| b.entity);
+    }
     workspace.settings = Some(SolveSettings {
         mode,
         linear_slop: config.linear_slop,
