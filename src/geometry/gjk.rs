@@ -118,11 +118,16 @@ impl Simplex {
             s.count = i + 1;
         }
         if s.count == 0 {
+            // Cold start from the supports that face each other along the line between the
+            // two frame origins (not vertex 0 of each): fewer iterations to converge.
+            let d = xf.p;
+            let ia = a.support(d);
+            let ib = b.support(xf.q.inv_rotate(-d));
             let v = &mut s.v[0];
-            v.index_a = 0;
-            v.index_b = 0;
-            v.w_a = a.point(0);
-            v.w_b = xf.transform_point(b.point(0));
+            v.index_a = ia as u8;
+            v.index_b = ib as u8;
+            v.w_a = a.point(ia);
+            v.w_b = xf.transform_point(b.point(ib));
             v.w = v.w_b - v.w_a;
             v.a = 1.0;
             s.count = 1;

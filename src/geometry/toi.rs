@@ -197,11 +197,16 @@ struct Motion {
 }
 
 impl Motion {
-    fn new(sweep: &Sweep, origin: Vec2, proxy: &ShapeProxy) -> Self {
+    /// `any_rotation`: whether either body turns (the reach is needed only then).
+    fn new(sweep: &Sweep, origin: Vec2, proxy: &ShapeProxy, any_rotation: bool) -> Self {
         let w = sweep.a1 - sweep.a0;
         // Reduce the start angle to [-pi, pi] so that sin/cos keep their precision; the
         // rotation over the step is kept whole.
-        let a0 = sweep.a0 - (sweep.a0 / core::f32::consts::TAU).round() * core::f32::consts::TAU;
+        let a0 = if sweep.a0.abs() <= core::f32::consts::PI {
+            sweep.a0
+        } else {
+            sweep.a0 - (sweep.a0 / core::f32::consts::TAU).round() * core::f32::consts::TAU
+        };
         Self {
             c0: sweep.c0 - origin,
             v: sweep.c1 - sweep.c0,
@@ -209,7 +214,12 @@ impl Motion {
             w,
             local_center: sweep.local_center,
             q0: Rot::from_angle(a0),
-            reach: proxy.max_distance_from(sweep.local_center),
+            // Only the motion bounds use the reach, always multiplied by an angular speed.
+            reach: if any_rotation {
+                proxy.max_distance_from(sweep.local_center)
+            } else {
+                0.0
+            },
         }
     }
 
@@ -220,7 +230,7 @@ impl Motion {
 
     #[inline]
     fn pose(&self, t: f32) -> Pose {
-        let q = if self.w == 0.0 {
+        let q = if self.w == 0.0 || t == 0.0 {
             self.q0
         } else {
             Rot::from_angle(self.a0 + t * self.w)
@@ -484,7 +494,9 @@ fn find_root(
 ) -> (f32, u32) {
     let mut iterations = 0;
     loop {
-        let t = if iterations & 1 == 1 {
+        // False position first: it lands on the root at once where `s` is linear (no
+        // rotation), and bisection still halves the bracket every other step.
+        let t = if iterations & 1 == 0 {
             // False position (the secant through the bracket ends).
             a1 + (target - s1) * (a2 - a1) / (s2 - s1)
         } else {
@@ -561,7 +573,43 @@ fn certify(
     (t2, t2)
 }
 
+/// True when every coordinate, angle and radius of a body is finite and within
+/// [`MAX_WORLD_COORDINATE`]: one comparison per number, which NaN and infinities fail.
+#[inline]
+fn all_in_bounds(sweep: &Sweep, proxy: &ShapeProxy) -> bool {
+    let m = MAX_WORLD_COORDINATE;
+    let ok = |v: Vec2| v.x.abs() <= m && v.y.abs() <= m;
+    let mut all = ok(sweep.c0) & ok(sweep.c1) & ok(sweep.local_center);
+    all &= sweep.a0.abs() <= m && sweep.a1.abs() <= m && proxy.radius <= m;
+    for &p in proxy.points() {
+        all &= ok(p);
+    }
+    all
+}
+
+/// Checks the input: a branch-light test that valid input passes, and the detailed checks
+/// (which say what is wrong) only when it fails.
 fn validate(input: &ToiInput) -> Result<(), ToiFailure> {
+    let c = &input.config;
+    let valid = c.linear_slop.is_finite()
+        && c.linear_slop > 0.0
+        && (0.0..=1.0).contains(&input.max_fraction)
+        && c.target_separation.is_none_or(f32::is_finite)
+        && [
+            (&input.sweep_a, &input.proxy_a),
+            (&input.sweep_b, &input.proxy_b),
+        ]
+        .iter()
+        .all(|(sweep, proxy)| {
+            proxy.radius >= 0.0
+                && (1..=MAX_POLYGON_VERTICES).contains(&proxy.count())
+                && all_in_bounds(sweep, proxy)
+        });
+    if valid { Ok(()) } else { diagnose(input) }
+}
+
+/// The detailed checks of [`validate`], in the order that decides which failure is reported.
+fn diagnose(input: &ToiInput) -> Result<(), ToiFailure> {
     let slop = input.config.linear_slop;
     let t_max = input.max_fraction;
     let target_ok = input.config.target_separation.is_none_or(f32::is_finite);
@@ -622,8 +670,9 @@ pub fn time_of_impact(input: &ToiInput) -> ToiOutput {
     // Work relative to A's start: far from the world origin, differences of nearby large
     // coordinates are exact in f32 (Sterbenz), so the query keeps its precision.
     let origin = input.sweep_a.c0;
-    let motion_a = Motion::new(&input.sweep_a, origin, proxy_a);
-    let motion_b = Motion::new(&input.sweep_b, origin, proxy_b);
+    let any_rotation = input.sweep_a.a1 != input.sweep_a.a0 || input.sweep_b.a1 != input.sweep_b.a0;
+    let motion_a = Motion::new(&input.sweep_a, origin, proxy_a, any_rotation);
+    let motion_b = Motion::new(&input.sweep_b, origin, proxy_b, any_rotation);
 
     let t_max = input.max_fraction;
     let total_radius = proxy_a.radius + proxy_b.radius;
@@ -692,7 +741,11 @@ pub fn time_of_impact(input: &ToiInput) -> ToiOutput {
         }
 
         let f = SeparationFunction::new(&cache, proxy_a, &motion_a, proxy_b, &motion_b, xf_a, xf_b);
-        let s1_bound = f.min_separation_at(xf_a, xf_b).3;
+        // Without rotation the supports along the axis never change, so the separation along
+        // it is linear in t and equal to the bound `S` (for a face, when the face is a true
+        // supporting face): the push-back alone proves what it skips, as in Box2D.
+        let linear = !any_rotation && f.face_excess == 0.0;
+        let mut s1_bound = f32::NAN;
 
         // Push-back on the window [t1, t_end]: resolve the deepest points, at most once per
         // vertex.
@@ -731,6 +784,21 @@ pub fn time_of_impact(input: &ToiInput) -> ToiOutput {
             }
             t2 = root;
             s2_bound = f32::NAN;
+        }
+        if linear && advance && t2 > t1 {
+            if t2 >= t_end {
+                if t_end >= t_max && (s2_witness.is_nan() || s2_witness > target + tolerance) {
+                    out.state = ToiState::Separated;
+                    out.fraction = t_max;
+                    return out;
+                }
+                t_end = t_max;
+            }
+            t1 = t2;
+            continue;
+        }
+        if s1_bound.is_nan() {
+            s1_bound = f.min_separation_at(xf_a, xf_b).3;
         }
         if advance && s2_bound.is_nan() {
             s2_bound = f.lower_bound(t2);
