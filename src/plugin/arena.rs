@@ -4,7 +4,7 @@
 
 use bevy_ecs::prelude::*;
 use bevy_transform::components::Transform;
-use glam::{Quat, Vec2, Vec3};
+use glam::{Quat, Vec2};
 
 use super::{BodyMass, CcdEnabled, Collider, Friction, Restitution, StaticCollider, Velocity};
 use crate::geometry::{
@@ -34,6 +34,24 @@ impl SceneRng {
     pub fn range(&mut self, lo: f32, hi: f32) -> f32 {
         let unit = (self.next_u64() >> 40) as f32 / (1u64 << 24) as f32;
         lo + (hi - lo) * unit
+    }
+
+    /// A launch velocity: a uniform direction, a log-uniform speed in `[min_speed, max_speed)`
+    /// (m/s) and a spin of up to `max_turns` turns per step of `timestep` seconds, either way.
+    pub fn launch(
+        &mut self,
+        min_speed: f32,
+        max_speed: f32,
+        max_turns: f32,
+        timestep: f32,
+    ) -> Velocity {
+        let direction = self.range(0.0, core::f32::consts::TAU);
+        let speed = self.log_range(min_speed, max_speed);
+        let spin = self.range(-max_turns, max_turns) * core::f32::consts::TAU / timestep;
+        Velocity {
+            linear: speed * Vec2::new(direction.cos(), direction.sin()),
+            angular: spin,
+        }
     }
 
     /// A float log-uniform in `[lo, hi)`, both positive.
@@ -111,8 +129,8 @@ fn random_body_shape(rng: &mut SceneRng) -> Shape {
 }
 
 fn pose_of(transform: &Transform) -> Pose {
-    let x = transform.rotation * Vec3::X;
-    Pose::new(transform.translation.truncate(), x.y.atan2(x.x))
+    let (p, angle) = super::systems::planar_pose(transform);
+    Pose::new(p, angle)
 }
 
 /// Spawns the walls, obstacles and bodies of an arena into `world`.
@@ -186,15 +204,12 @@ pub fn spawn_arena(world: &mut World, config: &ArenaConfig) -> Arena {
                 break;
             }
         }
-        let direction = rng.range(0.0, core::f32::consts::TAU);
-        let speed = rng.log_range(config.min_speed, config.max_speed);
-        let spin = rng.range(-config.max_turns_per_step, config.max_turns_per_step)
-            * core::f32::consts::TAU
-            / config.timestep;
-        let velocity = Velocity {
-            linear: speed * Vec2::new(direction.cos(), direction.sin()),
-            angular: spin,
-        };
+        let velocity = rng.launch(
+            config.min_speed,
+            config.max_speed,
+            config.max_turns_per_step,
+            config.timestep,
+        );
         let transform = Transform::from_xyz(pose.p.x, pose.p.y, 0.0)
             .with_rotation(Quat::from_rotation_z(pose.q.angle()));
         let mass = collider.mass_properties(1.0);
@@ -467,19 +482,17 @@ pub fn generate_level(config: &LevelConfig) -> Level {
                 break;
             }
         }
-        let direction = rng.range(0.0, core::f32::consts::TAU);
-        let speed = rng.log_range(config.min_speed, config.max_speed);
-        let spin = rng.range(-config.max_turns_per_step, config.max_turns_per_step)
-            * core::f32::consts::TAU
-            / config.timestep;
+        let velocity = rng.launch(
+            config.min_speed,
+            config.max_speed,
+            config.max_turns_per_step,
+            config.timestep,
+        );
         bodies.push(LevelBody {
             collider,
             position: pose.p,
             angle: pose.q.angle(),
-            velocity: Velocity {
-                linear: speed * Vec2::new(direction.cos(), direction.sin()),
-                angular: spin,
-            },
+            velocity,
             restitution: rng.range(0.0, 1.0),
             friction: rng.range(0.0, 0.5),
         });

@@ -63,10 +63,14 @@ impl CcdWorkspace {
 
 /// The 2D pose of a `Transform`: translation x, y and the angle of the rotated x axis.
 fn pose_of(transform: &Transform) -> Option<(Vec2, f32)> {
-    let p = transform.translation.truncate();
-    let x = transform.rotation * Vec3::X;
-    let angle = x.y.atan2(x.x);
+    let (p, angle) = planar_pose(transform);
     (p.is_finite() && angle.is_finite() && transform.rotation.is_finite()).then_some((p, angle))
+}
+
+/// Translation x, y and the angle of the rotated x axis, unchecked.
+pub(crate) fn planar_pose(transform: &Transform) -> (Vec2, f32) {
+    let x = transform.rotation * Vec3::X;
+    (transform.translation.truncate(), x.y.atan2(x.x))
 }
 
 fn step_length(config: &CcdConfig, time: Option<&Time<Fixed>>) -> f32 {

@@ -110,8 +110,8 @@ pub fn bodies_outside(world: &mut World, bounds: Aabb) -> Vec<Entity> {
     let mut out: Vec<Entity> = query
         .iter(world)
         .filter(|(_, transform, collider)| {
-            let x = transform.rotation * Vec3::X;
-            let pose = Pose::new(transform.translation.truncate(), x.y.atan2(x.x));
+            let (p, angle) = super::systems::planar_pose(transform);
+            let pose = Pose::new(p, angle);
             let aabb = collider.proxy().aabb(pose);
             !(aabb.is_valid() && bounds.contains(&aabb))
         })
