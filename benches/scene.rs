@@ -255,14 +255,17 @@ impl Kernels {
             dt: DT,
         };
         let mut scratch = Vec::new();
+        let mut impacts = Vec::new();
         let t = Instant::now();
         for (b, c) in self.bodies.iter().zip(candidates) {
+            impacts.clear();
             black_box(geometry::solve_body(
                 b,
                 &self.statics,
                 c,
                 &settings,
                 &mut scratch,
+                &mut impacts,
             ));
         }
         t.elapsed().as_secs_f64()
@@ -281,6 +284,8 @@ mod peers {
     pub trait Peer {
         fn reset(&mut self);
         fn step(&mut self);
+        /// Every body's position, in level order.
+        fn positions(&mut self) -> Vec<Vec2>;
     }
 
     pub struct Box2d {
@@ -312,7 +317,16 @@ mod peers {
         Ok(())
     }
 
-    pub fn box2d(f: &'static boxdd::Foundation, level: &Level, ccd: bool) -> boxdd::Result<Box2d> {
+    /// Box2D with its continuous collision on or off. Continuous collision against statics is
+    /// a world switch in Box2D v3; `bullet` also makes every body a bullet (continuous against
+    /// other bodies too, solved in a later stage), which these bodies, filtered to hit statics
+    /// only, do not need: both are measured and the cheaper is the one compared.
+    pub fn box2d(
+        f: &'static boxdd::Foundation,
+        level: &Level,
+        ccd: bool,
+        bullet: bool,
+    ) -> boxdd::Result<Box2d> {
         use boxdd::{BodyBuilder, BodyType, Filter, Position, ShapeDef, WorldBuilder};
         let mut world = f.create_world(
             WorldBuilder::from(f.world_def())
@@ -361,7 +375,7 @@ mod peers {
                     .angle(b.angle)
                     .linear_velocity(bv(b.velocity.linear))
                     .angular_velocity(b.velocity.angular)
-                    .bullet(ccd)
+                    .bullet(ccd && bullet)
                     .allow_fast_rotation(true)
                     .enable_sleep(false)
                     .build()?,
@@ -413,6 +427,20 @@ mod peers {
                 b.set_angular_velocity(*w).expect("spin");
             }
         }
+        fn positions(&mut self) -> Vec<Vec2> {
+            self.bodies
+                .iter()
+                .map(|id| {
+                    let p = self
+                        .world
+                        .body(*id)
+                        .expect("body")
+                        .position()
+                        .expect("pose");
+                    Vec2::new(p.x, p.y)
+                })
+                .collect()
+        }
         fn step(&mut self) {
             let _ = self.world.step(DT, 4).expect("step");
         }
@@ -424,13 +452,21 @@ mod peers {
         start: Vec<(Vec2, f32, Vec2, f32)>,
     }
 
-    pub fn rapier(level: &Level, ccd: bool) -> Rapier {
+    /// Rapier with its continuous collision on or off. In Rapier 0.35 every fast dynamic body
+    /// sweeps the fixed colliders whatever its `ccd_enabled` flag (which only widens the sweep
+    /// to other bodies); the world switch is `max_ccd_substeps`, 0 turning all of it off. So
+    /// "off" here is `max_ccd_substeps = 0`, and "on" the default of 1, with `ccd_enabled` set
+    /// when `all_bodies` asks for the wider sweep as well.
+    pub fn rapier(level: &Level, ccd: bool, all_bodies: bool) -> Rapier {
         use rapier2d::math::{Pose, Vector};
         use rapier2d::prelude::*;
         let rv = |v: Vec2| Vector::new(v.x, v.y);
         let mut world = PhysicsWorld::new();
         world.gravity = Vector::ZERO;
         world.integration_parameters.dt = DT;
+        if !ccd {
+            world.integration_parameters.max_ccd_substeps = 0;
+        }
         let static_groups =
             InteractionGroups::new(Group::GROUP_2, Group::GROUP_1, InteractionTestMode::And);
         let body_groups =
@@ -453,7 +489,7 @@ mod peers {
                     .pose(Pose::new(rv(b.position), b.angle))
                     .linvel(rv(b.velocity.linear))
                     .angvel(b.velocity.angular)
-                    .ccd_enabled(ccd)
+                    .ccd_enabled(ccd && all_bodies)
                     .can_sleep(false),
             );
             let proxy = b.collider.proxy();
@@ -496,6 +532,15 @@ mod peers {
         }
         fn step(&mut self) {
             self.world.step();
+        }
+        fn positions(&mut self) -> Vec<Vec2> {
+            self.bodies
+                .iter()
+                .map(|h| {
+                    let t = self.world.bodies[*h].translation();
+                    Vec2::new(t.x, t.y)
+                })
+                .collect()
         }
     }
 }
@@ -544,7 +589,98 @@ fn mode_name(r: Resolution) -> &'static str {
     }
 }
 
+/// Where the time of impact spends its time in the scene: every first-sweep pair, by class.
+fn pair_stats(lvl: &Level) {
+    use bevy_ccd::geometry::{Sweep as GSweep, ToiConfig, ToiInput, ToiState, time_of_impact};
+    let k = Kernels::new(lvl);
+    let cands = k.candidates();
+    // [rotating?][hit?] -> (pairs, seconds, iterations, root iterations, certify evaluations)
+    let mut acc = [[(0u64, 0.0f64, 0u64, 0u64, 0u64); 2]; 2];
+    for (b, list) in k.bodies.iter().zip(&cands) {
+        for &i in list {
+            let t = &k.statics.items()[i as usize];
+            let mut input = ToiInput::new(
+                b.proxy,
+                b.sweep,
+                t.proxy,
+                GSweep::stationary(Vec2::ZERO, t.position, t.angle),
+            );
+            input.config = ToiConfig {
+                linear_slop: LINEAR_SLOP,
+                target_separation: None,
+            };
+            let s = Instant::now();
+            let mut out = time_of_impact(black_box(&input));
+            for _ in 0..9 {
+                out = time_of_impact(black_box(&input));
+            }
+            let dt = s.elapsed().as_secs_f64() / 10.0;
+            let r = (b.sweep.a0 != b.sweep.a1) as usize;
+            let h = matches!(out.state, ToiState::Hit) as usize;
+            let a = &mut acc[r][h];
+            a.0 += 1;
+            a.1 += dt;
+            a.2 += out.iterations as u64;
+            a.3 += out.root_iterations as u64;
+            a.4 += out.certify_evaluations as u64;
+        }
+    }
+    println!(
+        "| rotating | hit | pairs | total ms | ns/pair | iterations | root its | certify evals |"
+    );
+    for (r, row) in acc.iter().enumerate() {
+        for (h, a) in row.iter().enumerate() {
+            let n = a.0.max(1) as f64;
+            println!(
+                "| {} | {} | {} | {:.3} | {:.0} | {:.2} | {:.2} | {:.2} |",
+                r == 1,
+                h == 1,
+                a.0,
+                a.1 * 1e3,
+                a.1 * 1e9 / n,
+                a.2 as f64 / n,
+                a.3 as f64 / n,
+                a.4 as f64 / n
+            );
+        }
+    }
+}
+
+/// `SCENE_PROFILE=clamp|substep`: only step our 10k-body, 1k-static scene on one thread, for a
+/// profiler (`perf record`), and print the phase medians.
+fn profile(mode: &str) {
+    let resolution = match mode {
+        "substep" => Resolution::SubStep { max_substeps: 4 },
+        _ => Resolution::Clamp,
+    };
+    let steps: usize = std::env::var("SCENE_PROFILE_STEPS")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(500);
+    let lvl = level(10_000, 1_000);
+    pair_stats(&lvl);
+    let mut ours = Ours::new(&lvl);
+    ours.configure(resolution, false);
+    let mut phases: Vec<Phases> = (0..steps).map(|_| ours.step()).collect();
+    let names = [
+        "step",
+        "record",
+        "broad phase",
+        "TOI",
+        "resolve",
+        "schedule",
+    ];
+    for (k, name) in names.iter().enumerate() {
+        let mut v: Vec<f64> = phases.iter_mut().map(|p| p[k]).collect();
+        println!("{name}: {:.3} ms", median(&mut v) * 1e3);
+    }
+}
+
 fn main() {
+    if let Ok(mode) = std::env::var("SCENE_PROFILE") {
+        profile(&mode);
+        return;
+    }
     let quick = std::env::var_os("SCENE_QUICK").is_some();
     let mut c = criterion();
     let ns: &[usize] = if quick {
@@ -737,19 +873,26 @@ fn main() {
         "\n### Peers: median full step (ms), CCD on vs off, 1 thread\n"
     )
     .unwrap();
-    writeln!(out, "| engine | N | M | step CCD off | step CCD on | CCD cost/body (µs) | ours clamp 1t µs/body | ours substep 1t µs/body | ours substep 2t µs/body |").unwrap();
-    writeln!(out, "|---|---|---|---|---|---|---|---|---|").unwrap();
+    writeln!(out, "| engine | N | M | step CCD off | step CCD on | CCD cost/body (µs) | bodies its CCD moved | ours clamp 1t µs/body | ours clamp / peer | ours substep 1t µs/body | ours substep 2t µs/body |").unwrap();
+    writeln!(out, "|---|---|---|---|---|---|---|---|---|---|---|").unwrap();
     let peer_ms: &[usize] = if quick { &[1_000] } else { &[1_000, 100_000] };
     for &m in peer_ms {
         for &n in &[1_000usize, 10_000] {
             let lvl = level(n, m);
-            for engine in ["box2d", "rapier"] {
+            for engine in ["box2d", "box2d bullets", "rapier", "rapier ccd_enabled"] {
                 let mut med = [0.0; 2];
+                let mut ends: [Vec<Vec2>; 2] = Default::default();
                 for (k, ccd) in [false, true].into_iter().enumerate() {
                     let t = Instant::now();
                     let mut peer: Box<dyn Peer> = match engine {
-                        "box2d" => Box::new(peers::box2d(foundation, &lvl, ccd).expect("box2d")),
-                        _ => Box::new(peers::rapier(&lvl, ccd)),
+                        "box2d" => {
+                            Box::new(peers::box2d(foundation, &lvl, ccd, false).expect("box2d"))
+                        }
+                        "box2d bullets" => {
+                            Box::new(peers::box2d(foundation, &lvl, ccd, true).expect("box2d"))
+                        }
+                        "rapier" => Box::new(peers::rapier(&lvl, ccd, false)),
+                        _ => Box::new(peers::rapier(&lvl, ccd, true)),
                     };
                     // Let the broad phase settle once.
                     peer.reset();
@@ -760,7 +903,7 @@ fn main() {
                     );
                     let mut s = bench_custom(
                         &mut c,
-                        &format!("{engine}/n{n}/m{m}"),
+                        &format!("{}/n{n}/m{m}", engine.replace(' ', "_")),
                         if ccd { "ccd_on" } else { "ccd_off" },
                         || {
                             peer.reset();
@@ -770,7 +913,17 @@ fn main() {
                         },
                     );
                     med[k] = median(&mut s);
+                    peer.reset();
+                    peer.step();
+                    ends[k] = peer.positions();
                 }
+                // Evidence that the peer's CCD did work in the timed step: bodies whose end
+                // position it changed by more than a millimetre.
+                let changed = ends[0]
+                    .iter()
+                    .zip(&ends[1])
+                    .filter(|(a, b)| a.distance(**b) > 1e-3)
+                    .count();
                 let per = (med[1] - med[0]) * 1e6 / n as f64;
                 let oc = ours
                     .get(&(n, m, "clamp", 1))
@@ -781,9 +934,14 @@ fn main() {
                 let os2 = ours
                     .get(&(n, m, "substep", threads))
                     .map_or(f64::NAN, |x| x * 1e6 / n as f64);
+                let ratio = if per > 0.0 {
+                    format!("{:.2}", oc / per)
+                } else {
+                    "n/a (peer cost ≤ 0)".into()
+                };
                 writeln!(
                     out,
-                    "| {engine} | {n} | {m} | {:.3} | {:.3} | {per:.3} | {oc:.3} | {os:.3} | {os2:.3} |",
+                    "| {engine} | {n} | {m} | {:.3} | {:.3} | {per:.3} | {changed} | {oc:.3} | {ratio} | {os:.3} | {os2:.3} |",
                     med[0] * 1e3,
                     med[1] * 1e3,
                 )

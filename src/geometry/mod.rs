@@ -17,7 +17,7 @@ pub use gjk::{DistanceInput, DistanceOutput, SimplexCache, shape_distance};
 pub use math::{Pose, Rot, cross, left_perp, right_perp};
 pub use proxy::ShapeProxy;
 pub use resolve::{
-    BodyResult, BodyState, ImpactRecord, ResolveMode, SolveSettings, StaticItem, StaticSet,
+    BodyOutcome, BodyState, ImpactRecord, ResolveMode, SolveSettings, StaticItem, StaticSet,
     contact_response, solve_body,
 };
 pub use shape::{Aabb, Capsule, Circle, MassProperties, Polygon, Segment, Shape, ShapeError};

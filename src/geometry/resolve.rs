@@ -2,13 +2,13 @@
 //! every candidate, earliest hit wins, then clamp or sub-step with an impulse response.
 //!
 //! Plain Rust: the plugin gathers a [`BodyState`] per body, calls [`solve_body`] (in parallel,
-//! each body independent of the others) and writes the [`BodyResult`] back.
+//! each body independent of the others) and writes the [`BodyOutcome`] back.
 
 use glam::Vec2;
-use smallvec::SmallVec;
 
 use super::bvh::Bvh;
-use super::constants::separation_tolerance;
+use super::constants::{separation_tolerance, target_separation};
+use super::gjk::{DistanceInput, SimplexCache, shape_distance};
 use super::math::{Pose, cross, left_perp, right_perp};
 use super::proxy::ShapeProxy;
 use super::shape::Aabb;
@@ -127,17 +127,19 @@ pub struct ImpactRecord {
     pub normal: Vec2,
 }
 
-/// What the solver did with a body.
-#[derive(Clone, Debug, PartialEq)]
-pub struct BodyResult {
+/// What the solver did with a body. The impacts themselves go to the list passed to
+/// [`solve_body`], so that a caller solving many bodies keeps them all in one reused buffer
+/// instead of one small vector per body.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BodyOutcome {
     /// Final body origin.
     pub position: Vec2,
     /// Final angle (radians, unwrapped).
     pub angle: f32,
     /// New velocity, when the body keeps one.
     pub velocity: Option<(Vec2, f32)>,
-    /// Impacts in time order.
-    pub impacts: SmallVec<[ImpactRecord; 2]>,
+    /// Impacts appended to the caller's list, in time order.
+    pub impacts: u32,
     /// Sub-steps spent after impacts.
     pub substeps: u32,
     /// The body started the step overlapping a target.
@@ -174,6 +176,48 @@ fn approaching(sweep: &Sweep, point: Vec2, normal: Vec2, threshold: f32) -> bool
     v.dot(normal) > threshold
 }
 
+/// Whether the body, swept along `sweep`, provably never comes within hit range of `target`:
+/// a conservative test that spares the full time of impact for most of the candidates a swept
+/// box lets through (a long diagonal sweep has a box far larger than its path).
+///
+/// Derivation. At every fraction `t` the body's core lies within `reach` of its centre of
+/// mass `c(t)` (`reach` is the farthest core point from the centre; rotation does not change
+/// it), and the angle model moves `c(t)` along the segment `c0 → c1`. So at every `t` the core
+/// distance between body and target is at least `d(segment c0 c1, target core) - reach`. The
+/// time of impact reports a hit only where the core distance comes within `target + tolerance`
+/// = `total radius + slop + slop / 4` (see [`time_of_impact`]); if the bound stays above that,
+/// its answer is *separated*, which is returned here without the advancement. One more slop of
+/// margin covers GJK's rounding; the test is done relative to `c0` so that far from the origin
+/// no precision is lost.
+fn out_of_reach(
+    reach: f32,
+    proxy: &ShapeProxy,
+    sweep: &Sweep,
+    target: &StaticItem,
+    slop: f32,
+) -> bool {
+    let path = sweep.c1 - sweep.c0;
+    let points = [Vec2::ZERO, path];
+    let count = if path == Vec2::ZERO { 1 } else { 2 };
+    let segment = ShapeProxy::from_parts(&points[..count], 0.0);
+    let d = shape_distance(
+        &DistanceInput {
+            proxy_a: &segment,
+            proxy_b: &target.proxy,
+            pose_a: Pose::new(Vec2::ZERO, 0.0),
+            pose_b: Pose::new(target.position - sweep.c0, target.angle),
+            use_radii: false,
+        },
+        &mut SimplexCache::default(),
+    );
+    // As `time_of_impact` sets it: `target = max(total radius + slop, 2 tolerance)`.
+    let tolerance = separation_tolerance(slop);
+    let hit_range = (proxy.radius + target.proxy.radius + target_separation(slop))
+        .max(2.0 * tolerance)
+        + tolerance;
+    d.simplex_count < 3 && d.distance - reach > hit_range + slop
+}
+
 /// The time of impact of the body against one target, with the handling of bodies that start
 /// the step touching or inside it:
 ///
@@ -184,7 +228,16 @@ fn approaching(sweep: &Sweep, point: Vec2, normal: Vec2, threshold: f32) -> bool
 /// - cores overlapping (deep): Box2D's fallback, the same query with a small circle at the
 ///   centre of mass; if the centre itself is inside a polygon target, motion that takes it
 ///   further in across the face it is nearest to is stopped, other motion is let through.
-fn pair_toi(body: &BodyState, sweep: &Sweep, target: &StaticItem, slop: f32) -> PairOutcome {
+fn pair_toi(
+    body: &BodyState,
+    reach: f32,
+    sweep: &Sweep,
+    target: &StaticItem,
+    slop: f32,
+) -> PairOutcome {
+    if out_of_reach(reach, &body.proxy, sweep, target, slop) {
+        return PairOutcome::Clear { overlapping: false };
+    }
     let target_sweep = Sweep::stationary(Vec2::ZERO, target.position, target.angle);
     let mut input = ToiInput::new(body.proxy, *sweep, target.proxy, target_sweep);
     input.config = ToiConfig {
@@ -516,24 +569,28 @@ pub fn contact_response(
 ///
 /// `candidates` are the targets overlapping the body's swept bound (ascending), as the broad
 /// phase found them; sub-steps query `statics` again with their new sweeps. `scratch` is a
-/// reusable buffer. Deterministic: the result depends only on the inputs.
+/// reusable buffer; the impacts found are appended to `impacts`, in time order, and counted in
+/// the outcome. Deterministic: the outcome depends only on the inputs.
 pub fn solve_body(
     body: &BodyState,
     statics: &StaticSet,
     candidates: &[u32],
     settings: &SolveSettings,
     scratch: &mut Vec<u32>,
-) -> BodyResult {
+    impacts: &mut Vec<ImpactRecord>,
+) -> BodyOutcome {
     let slop = settings.linear_slop;
     let dt = settings.dt;
+    // The farthest core point from the centre of mass, for `out_of_reach`.
+    let reach = body.proxy.max_distance_from(body.local_center);
     let mut sweep = body.sweep;
     let implied = (sweep.linear_motion() / dt, sweep.angular_motion() / dt);
     let mut velocity = body.velocity.unwrap_or(implied);
-    let mut result = BodyResult {
+    let mut result = BodyOutcome {
         position: Vec2::ZERO,
         angle: 0.0,
         velocity: body.velocity,
-        impacts: SmallVec::new(),
+        impacts: 0,
         substeps: 0,
         started_overlapping: false,
         failure: None,
@@ -556,7 +613,7 @@ pub fn solve_body(
             let Some(target) = statics.items.get(index as usize) else {
                 continue;
             };
-            match pair_toi(body, &sweep, target, slop) {
+            match pair_toi(body, reach, &sweep, target, slop) {
                 PairOutcome::Clear { overlapping } => {
                     result.started_overlapping |= overlapping && first;
                 }
@@ -596,12 +653,13 @@ pub fn solve_body(
         };
         let step_fraction = step_start + fraction * (1.0 - step_start);
         let outward = -normal;
-        result.impacts.push(ImpactRecord {
+        impacts.push(ImpactRecord {
             target: index,
             fraction: step_fraction,
             point,
             normal: outward,
         });
+        result.impacts += 1;
         let center = sweep.center_at(fraction);
         let angle = sweep.angle_at(fraction);
         let (patch_a, patch_b) = contact_patch(
@@ -645,4 +703,90 @@ pub fn solve_body(
         result.velocity = Some(velocity);
     }
     result
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::{Capsule, Circle, Polygon, Shape};
+
+    /// A small seeded generator (SplitMix64), so that the cases are the same on every run.
+    struct Rng(u64);
+
+    impl Rng {
+        fn next(&mut self) -> f32 {
+            self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
+            let mut z = self.0;
+            z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+            z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+            ((z ^ (z >> 31)) >> 40) as f32 / (1u64 << 24) as f32
+        }
+
+        fn range(&mut self, lo: f32, hi: f32) -> f32 {
+            lo + (hi - lo) * self.next()
+        }
+    }
+
+    fn shape(rng: &mut Rng) -> ShapeProxy {
+        let size = rng.range(0.02, 1.0);
+        let shape: Shape = match (rng.next() * 4.0) as u32 {
+            0 => Circle::new(size).unwrap().into(),
+            1 => Capsule::horizontal(size, 0.3 * size).unwrap().into(),
+            2 => Polygon::rectangle(size, rng.range(0.01, 1.0))
+                .unwrap()
+                .into(),
+            _ => Polygon::regular(5, size, 0.1 * size).unwrap().into(),
+        };
+        shape.proxy()
+    }
+
+    /// The pre-check only ever answers for pairs whose full time of impact is *separated*, and
+    /// it does answer for a good share of near misses (else it would be dead weight).
+    #[test]
+    fn out_of_reach_only_skips_pairs_the_full_query_calls_separated() {
+        let mut rng = Rng(7);
+        let slop = crate::geometry::LINEAR_SLOP;
+        let (mut skipped, mut cases) = (0, 0);
+        for _ in 0..20_000 {
+            let proxy = shape(&mut rng);
+            let target = StaticItem {
+                proxy: shape(&mut rng),
+                position: Vec2::new(rng.range(-3.0, 3.0), rng.range(-3.0, 3.0)),
+                angle: rng.range(-3.2, 3.2),
+            };
+            // Long fast sweeps that pass near the target, spinning up to two turns.
+            let c0 = Vec2::new(rng.range(-8.0, 8.0), rng.range(-8.0, 8.0));
+            let c1 = Vec2::new(rng.range(-8.0, 8.0), rng.range(-8.0, 8.0));
+            let a0 = rng.range(-3.2, 3.2);
+            let a1 = a0 + rng.range(-12.6, 12.6);
+            let sweep = Sweep::new(Vec2::ZERO, c0, a0, c1, a1);
+            let reach = proxy.max_distance_from(Vec2::ZERO);
+            cases += 1;
+            if !out_of_reach(reach, &proxy, &sweep, &target, slop) {
+                continue;
+            }
+            skipped += 1;
+            let mut input = ToiInput::new(
+                proxy,
+                sweep,
+                target.proxy,
+                Sweep::stationary(Vec2::ZERO, target.position, target.angle),
+            );
+            input.config.linear_slop = slop;
+            let out = time_of_impact(&input);
+            assert_eq!(
+                out.state,
+                ToiState::Separated,
+                "skipped a pair the full query calls {:?} at {} (sweep {sweep:?}, target {target:?})",
+                out.state,
+                out.fraction
+            );
+        }
+        eprintln!("out_of_reach skipped {skipped} of {cases} pairs");
+        assert!(skipped > cases / 10, "only {skipped} of {cases} skipped");
+        assert!(
+            skipped < cases,
+            "every pair skipped: the cases never come close"
+        );
+    }
 }

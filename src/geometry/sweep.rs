@@ -55,8 +55,16 @@ impl Sweep {
 
     /// A sweep from the body-origin positions and angles at both ends.
     pub fn from_origins(local_center: Vec2, p0: Vec2, a0: f32, p1: Vec2, a1: f32) -> Self {
-        let c0 = p0 + Rot::from_angle(a0).rotate(local_center);
-        let c1 = p1 + Rot::from_angle(a1).rotate(local_center);
+        // Most bodies are centred on their origin: skip the two rotations (the result is the
+        // same point, as rotating the zero vector gives zero, up to the sign of a zero).
+        let (c0, c1) = if local_center == Vec2::ZERO {
+            (p0, p1)
+        } else {
+            (
+                p0 + Rot::from_angle(a0).rotate(local_center),
+                p1 + Rot::from_angle(a1).rotate(local_center),
+            )
+        };
         Self {
             local_center,
             c0,

@@ -35,17 +35,24 @@ pub struct Collider {
     /// Mass properties at unit density (entity frame), computed once: the plugin needs them
     /// for every body every step.
     unit_mass: MassProperties,
+    /// Radius of the core circle about the centre of mass, used when a body starts a step deep
+    /// in a target (Box2D's fallback: a quarter of the shape's smallest extent). Cached for
+    /// the same reason.
+    core_radius: f32,
 }
 
 impl Collider {
     /// A collider from a validated shape, centred on the entity origin.
     pub fn new(shape: impl Into<Shape>) -> Self {
         let shape = shape.into();
+        let proxy = shape.proxy();
+        let unit_mass = shape.mass_properties(1.0);
         Self {
             shape,
             offset: Vec2::ZERO,
-            proxy: shape.proxy(),
-            unit_mass: shape.mass_properties(1.0),
+            proxy,
+            unit_mass,
+            core_radius: 0.25 * proxy.inner_radius(unit_mass.center),
         }
     }
 
@@ -89,6 +96,7 @@ impl Collider {
             .collect();
         self.proxy = ShapeProxy::new(&points, self.proxy.radius)?;
         self.unit_mass.center = self.shape.mass_properties(1.0).center + offset;
+        self.core_radius = 0.25 * self.proxy.inner_radius(self.unit_mass.center);
         Ok(self)
     }
 
@@ -105,6 +113,12 @@ impl Collider {
     /// The support-map proxy in the entity frame (offset applied).
     pub fn proxy(&self) -> &ShapeProxy {
         &self.proxy
+    }
+
+    /// Radius of the core circle (m) the solver falls back to when the body starts a step deep
+    /// in a target: a quarter of the shape's smallest extent about its centre of mass.
+    pub fn core_radius(&self) -> f32 {
+        self.core_radius
     }
 
     /// Mass properties at `density` (kg/m²), centre in the entity frame.
@@ -201,6 +215,11 @@ pub struct Sweep {
     pub local_center: Vec2,
     /// Whether the start pose was recorded in the current step. The default is `false`.
     pub recorded: bool,
+    /// Where the plugin keeps this body in its workspace this step, plus one (0: not
+    /// gathered). Lets the write-back run over the bodies in parallel and find each one's
+    /// answer without a search.
+    #[reflect(ignore)]
+    pub(crate) slot: u32,
 }
 
 impl Sweep {

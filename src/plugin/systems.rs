@@ -2,11 +2,10 @@
 //! write the answers back.
 
 use bevy_ecs::prelude::*;
-use bevy_tasks::{ComputeTaskPool, ParallelSlice, ParallelSliceMut, TaskPool};
+use bevy_tasks::{ComputeTaskPool, TaskPool};
 use bevy_time::{Fixed, Time};
 use bevy_transform::components::Transform;
-use glam::{Quat, Vec2, Vec3};
-use smallvec::SmallVec;
+use glam::{Quat, Vec2};
 
 use super::components::{
     BodyMass, CcdEnabled, CcdError, CcdStatus, Collider, Friction, Impact, Restitution,
@@ -14,29 +13,108 @@ use super::components::{
 };
 use super::{CcdConfig, CcdImpact, Resolution};
 use crate::geometry::{
-    self, BodyResult, BodyState, MAX_WORLD_COORDINATE, ResolveMode, SolveSettings, StaticItem,
+    self, BodyState, ImpactRecord, MAX_WORLD_COORDINATE, ResolveMode, SolveSettings, StaticItem,
     StaticSet, solve_body,
 };
 
-/// One CCD body gathered for this step.
-#[derive(Clone, Debug)]
+/// One CCD body of this step: what the solver needs, then what it did.
+///
+/// Kept small on purpose (the budget is 256 bytes per body, components included):
+/// the shape is not copied (the solver reads it from the [`Collider`] in place), candidate
+/// targets and impacts live in per-lane flat lists, and the outcome is packed.
+#[derive(Clone, Copy, Debug)]
 pub(crate) struct BodyEntry {
     entity: Entity,
-    state: BodyState,
-    /// Targets overlapping the swept bound, ascending.
-    candidates: SmallVec<[u32; 6]>,
+    /// The motion over the step. The serial pass stores the raw origins here (centre zero);
+    /// the parallel pass turns them into the centre-of-mass sweep.
+    sweep: geometry::Sweep,
+    mass: f32,
+    inertia: f32,
+    restitution: f32,
+    friction: f32,
+    /// The body's velocity on the way in (when [`HAS_VELOCITY`]), the new one on the way out.
+    velocity: Vec2,
+    angular: f32,
+    /// This body's candidate targets: `lane.candidates[candidates..candidates + count]`.
+    candidates: u32,
+    candidate_count: u32,
+    /// This body's impacts: `lane.impacts[impacts..impacts + impact_count]`.
+    impacts: u32,
+    impact_count: u16,
+    substeps: u16,
+    /// Where the solver left the body origin, and its angle.
+    position: Vec2,
+    angle: f32,
+    flags: u8,
+    /// Why the body was not swept, or the time of impact that failed.
+    error: Option<CcdError>,
 }
 
-/// The plugin's buffers: the static world and this step's bodies and results.
+/// [`BodyEntry::flags`]: the body keeps a [`Velocity`].
+const HAS_VELOCITY: u8 = 1;
+/// [`BodyEntry::flags`]: the body started the step overlapping a target.
+const OVERLAPPING: u8 = 2;
+
+impl BodyEntry {
+    fn new(entity: Entity, sweep: &Sweep) -> Self {
+        Self {
+            entity,
+            sweep: geometry::Sweep {
+                local_center: Vec2::ZERO,
+                c0: sweep.start_position,
+                c1: sweep.end_position,
+                a0: sweep.start_angle,
+                a1: sweep.end_angle,
+            },
+            mass: 0.0,
+            inertia: 0.0,
+            restitution: 0.0,
+            friction: 0.0,
+            velocity: Vec2::ZERO,
+            angular: 0.0,
+            candidates: 0,
+            candidate_count: 0,
+            impacts: 0,
+            impact_count: 0,
+            substeps: 0,
+            position: Vec2::ZERO,
+            angle: 0.0,
+            flags: 0,
+            error: None,
+        }
+    }
+}
+
+/// The buffers of one lane: a contiguous run of bodies that one task handles, in the broad
+/// phase and in the solve alike. Flat lists instead of one small vector per body: a few
+/// bytes per body instead of dozens, and nothing allocated once the lists have grown.
+#[derive(Default)]
+struct Lane {
+    candidates: Vec<u32>,
+    impacts: Vec<ImpactRecord>,
+    scratch: Vec<u32>,
+}
+
+impl Lane {
+    fn bytes(&self) -> usize {
+        self.candidates.capacity() * size_of::<u32>()
+            + self.impacts.capacity() * size_of::<ImpactRecord>()
+            + self.scratch.capacity() * size_of::<u32>()
+    }
+}
+
+/// The plugin's buffers: the static world and this step's bodies, lanes and settings.
 ///
-/// Kept between steps so that the steady state allocates nothing.
+/// Kept between steps so that the steady state allocates nothing of its own.
 #[derive(Resource, Default)]
 pub struct CcdWorkspace {
     statics: StaticSet,
     static_entities: Vec<Entity>,
     statics_ready: bool,
     bodies: Vec<BodyEntry>,
-    results: Vec<BodyResult>,
+    lanes: Vec<Lane>,
+    /// Bodies per lane this step.
+    lane_len: usize,
     settings: Option<SolveSettings>,
 }
 
@@ -56,8 +134,45 @@ impl CcdWorkspace {
     pub fn bytes_per_body(&self) -> usize {
         let n = self.bodies.len().max(1);
         (self.bodies.capacity() * size_of::<BodyEntry>()
-            + self.results.capacity() * size_of::<BodyResult>())
+            + self.lanes.iter().map(Lane::bytes).sum::<usize>()
+            + self.lanes.capacity() * size_of::<Lane>())
             / n
+    }
+
+    /// The lanes' bodies and buffers, side by side.
+    fn lanes_mut(&mut self) -> impl Iterator<Item = (&mut [BodyEntry], &mut Lane)> {
+        self.bodies
+            .chunks_mut(self.lane_len.max(1))
+            .zip(self.lanes.iter_mut())
+    }
+}
+
+/// The task pool to split work over, when the config asks for it and there is more than one
+/// thread to split it over.
+fn pool(config: &CcdConfig) -> Option<&'static TaskPool> {
+    if !config.parallel {
+        return None;
+    }
+    let pool = ComputeTaskPool::get_or_init(TaskPool::default);
+    (pool.thread_num() > 1).then_some(&**pool)
+}
+
+/// Runs `work` on every lane: in parallel, one task per lane, when `pool` is given.
+fn run_lanes(
+    pool: Option<&TaskPool>,
+    workspace: &mut CcdWorkspace,
+    work: impl Fn(&mut [BodyEntry], &mut Lane) + Sync,
+) {
+    match pool {
+        Some(pool) if workspace.lanes.len() > 1 => {
+            let work = &work;
+            pool.scope(|s| {
+                for (bodies, lane) in workspace.lanes_mut() {
+                    s.spawn(async move { work(bodies, lane) });
+                }
+            });
+        }
+        _ => workspace.lanes_mut().for_each(|(b, l)| work(b, l)),
     }
 }
 
@@ -69,8 +184,12 @@ fn pose_of(transform: &Transform) -> Option<(Vec2, f32)> {
 
 /// Translation x, y and the angle of the rotated x axis, unchecked.
 pub(crate) fn planar_pose(transform: &Transform) -> (Vec2, f32) {
-    let x = transform.rotation * Vec3::X;
-    (transform.translation.truncate(), x.y.atan2(x.x))
+    // The x and y components of the rotated x axis, from the quaternion (x, y, z, w):
+    // R e_x = (1 - 2 (y² + z²), 2 (x y + w z), 2 (x z - w y)); the third is not needed.
+    let q = transform.rotation;
+    let ax = 1.0 - 2.0 * (q.y * q.y + q.z * q.z);
+    let ay = 2.0 * (q.x * q.y + q.w * q.z);
+    (transform.translation.truncate(), ay.atan2(ax))
 }
 
 fn step_length(config: &CcdConfig, time: Option<&Time<Fixed>>) -> f32 {
@@ -81,9 +200,10 @@ fn step_length(config: &CcdConfig, time: Option<&Time<Fixed>>) -> f32 {
 
 /// [`super::CcdSystems::RecordStart`]: the start pose of every enabled body.
 pub(crate) fn record_start(
+    config: Res<CcdConfig>,
     mut bodies: Query<(&Transform, &mut Sweep, &CcdEnabled), Without<StaticCollider>>,
 ) {
-    for (transform, mut sweep, enabled) in &mut bodies {
+    let record = |(transform, mut sweep, enabled): (&Transform, Mut<Sweep>, &CcdEnabled)| {
         let sweep = sweep.as_mut();
         sweep.recorded = enabled.0;
         if let Some((p, a)) = pose_of(transform) {
@@ -92,6 +212,11 @@ pub(crate) fn record_start(
         } else {
             sweep.start_position = Vec2::NAN;
         }
+    };
+    if pool(&config).is_some() {
+        bodies.par_iter_mut().for_each(record);
+    } else {
+        bodies.iter_mut().for_each(record);
     }
 }
 
@@ -108,14 +233,14 @@ pub(crate) fn record_end(
 ) {
     use core::f32::consts::{PI, TAU};
     let dt = step_length(&config, time.as_deref());
-    for (transform, mut sweep, velocity) in &mut bodies {
+    let record = |(transform, mut sweep, velocity): (&Transform, Mut<Sweep>, Option<&Velocity>)| {
         if !sweep.recorded {
-            continue;
+            return;
         }
         let sweep = sweep.as_mut();
         let Some((p, a)) = pose_of(transform) else {
             sweep.end_position = Vec2::NAN;
-            continue;
+            return;
         };
         sweep.end_position = p;
         let mut delta = (a - sweep.start_angle).rem_euclid(TAU);
@@ -129,6 +254,11 @@ pub(crate) fn record_end(
             }
         }
         sweep.end_angle = sweep.start_angle + delta;
+    };
+    if pool(&config).is_some() {
+        bodies.par_iter_mut().for_each(record);
+    } else {
+        bodies.iter_mut().for_each(record);
     }
 }
 
@@ -184,25 +314,222 @@ pub(crate) fn update_statics(
     workspace.statics_ready = true;
 }
 
-#[allow(clippy::type_complexity)]
-type BodyQuery<'w, 's> = Query<
+/// The components the parallel passes read, by entity.
+type BodyData<'w, 's> = Query<
     'w,
     's,
     (
-        Entity,
         &'static Collider,
-        &'static Sweep,
-        // Optional so that a body whose `CcdEnabled` was removed is reset to `Idle`.
-        Option<&'static CcdEnabled>,
         Option<&'static Velocity>,
         Option<&'static Restitution>,
         Option<&'static Friction>,
         Option<&'static BodyMass>,
-        &'static mut TimeOfImpact,
     ),
     Without<StaticCollider>,
 >;
 
+/// [`super::CcdSystems::BroadPhase`], second half: gather every enabled body with valid data
+/// and query the hierarchy with its swept bound. Bodies with bad data get an error (written
+/// back in the resolve phase) and are left alone.
+///
+/// A short serial pass lists the bodies (query order, which is deterministic for a given
+/// world); the rest (checks, sweeps, hierarchy queries) runs on the lanes in parallel.
+#[allow(clippy::type_complexity)]
+pub(crate) fn gather_bodies(
+    config: Res<CcdConfig>,
+    time: Option<Res<Time<Fixed>>>,
+    mut workspace: ResMut<CcdWorkspace>,
+    mut bodies: Query<
+        (Entity, &mut Sweep, Option<&CcdEnabled>, &mut TimeOfImpact),
+        (With<Collider>, Without<StaticCollider>),
+    >,
+    data: BodyData,
+) {
+    let dt = step_length(&config, time.as_deref());
+    let workspace = workspace.as_mut();
+    let entries = &mut workspace.bodies;
+    entries.clear();
+    // Exactly as many as can be gathered, so that the buffer does not double past need.
+    entries.reserve_exact(bodies.iter().len());
+    for (entity, mut sweep, enabled, mut toi) in &mut bodies {
+        if !enabled.is_some_and(|e| e.0) || !sweep.recorded {
+            if sweep.slot != 0 {
+                sweep.slot = 0;
+            }
+            if toi.status != CcdStatus::Idle {
+                *toi = TimeOfImpact::default();
+            }
+            continue;
+        }
+        entries.push(BodyEntry::new(entity, &sweep));
+        sweep.slot = entries.len() as u32;
+    }
+    let pool = pool(&config);
+    let lanes = pool.map_or(1, |p| p.thread_num() * LANES_PER_THREAD);
+    workspace.lane_len = entries.len().div_ceil(lanes).max(MIN_LANE_LEN);
+    let lane_count = entries.len().div_ceil(workspace.lane_len);
+    if workspace.lanes.len() < lane_count {
+        workspace.lanes.resize_with(lane_count, Lane::default);
+    }
+    let mode = match config.resolution {
+        Resolution::Clamp => ResolveMode::Clamp,
+        Resolution::SubStep { max_substeps } => ResolveMode::SubStep { max_substeps },
+    };
+    workspace.settings = Some(SolveSettings {
+        mode,
+        linear_slop: config.linear_slop,
+        dt,
+    });
+    let step_ok = dt.is_finite() && dt > 0.0;
+    let margin = config.linear_slop;
+    // Split the borrows: the statics are read while the lanes are written.
+    let statics = core::mem::take(&mut workspace.statics);
+    run_lanes(pool, workspace, |chunk, lane| {
+        lane.candidates.clear();
+        for body in chunk {
+            if !step_ok {
+                body.error = Some(CcdError::ZeroLengthStep);
+                continue;
+            }
+            let Ok((collider, velocity, restitution, friction, mass)) = data.get(body.entity)
+            else {
+                body.error = Some(CcdError::InvalidBodyData);
+                continue;
+            };
+            if let Err(error) = fill(body, collider, velocity, restitution, friction, mass) {
+                body.error = Some(error);
+                continue;
+            }
+            let start = lane.candidates.len();
+            statics.candidates(collider.proxy(), &body.sweep, margin, &mut lane.candidates);
+            body.candidates = start as u32;
+            body.candidate_count = (lane.candidates.len() - start) as u32;
+        }
+    });
+    workspace.statics = statics;
+}
+
+/// Lanes per thread: enough that threads finish together when bodies cost unevenly.
+const LANES_PER_THREAD: usize = 8;
+/// Fewest bodies in a lane: below this a task costs more than it saves.
+const MIN_LANE_LEN: usize = 64;
+
+/// Checks one body's data and fills its entry: sweep about the centre of mass, mass, material
+/// and velocity.
+fn fill(
+    body: &mut BodyEntry,
+    collider: &Collider,
+    velocity: Option<&Velocity>,
+    restitution: Option<&Restitution>,
+    friction: Option<&Friction>,
+    mass: Option<&BodyMass>,
+) -> Result<(), CcdError> {
+    let props = collider.mass_properties(1.0);
+    let raw = body.sweep;
+    let motion = geometry::Sweep::from_origins(props.center, raw.c0, raw.a0, raw.c1, raw.a1);
+    if !motion.is_finite() {
+        return Err(CcdError::NonFiniteTransform);
+    }
+    let big = motion
+        .c0
+        .abs()
+        .max_element()
+        .max(motion.c1.abs().max_element());
+    if big > MAX_WORLD_COORDINATE {
+        return Err(CcdError::CoordinatesTooLarge);
+    }
+    let (body_mass, inertia) = mass.map_or((props.mass, props.inertia), |m| (m.mass, m.inertia));
+    let restitution = restitution.map_or(0.0, |r| r.0);
+    let friction = friction.map_or(0.0, |f| f.0);
+    let valid = body_mass.is_finite()
+        && body_mass > 0.0
+        && inertia.is_finite()
+        && inertia > 0.0
+        && restitution.is_finite()
+        && friction.is_finite()
+        && friction >= 0.0
+        && velocity.is_none_or(|v| v.linear.is_finite() && v.angular.is_finite());
+    if !valid {
+        return Err(CcdError::InvalidBodyData);
+    }
+    body.sweep = motion;
+    body.mass = body_mass;
+    body.inertia = inertia;
+    body.restitution = restitution.clamp(0.0, 1.0);
+    body.friction = friction;
+    if let Some(v) = velocity {
+        body.velocity = v.linear;
+        body.angular = v.angular;
+        body.flags |= HAS_VELOCITY;
+    }
+    Ok(())
+}
+
+/// [`super::CcdSystems::TimeOfImpact`]: bilateral advancement and resolution for every body,
+/// in parallel. Each body depends only on itself and the statics, so the results are the
+/// same on any number of threads.
+pub(crate) fn solve_bodies(
+    config: Res<CcdConfig>,
+    mut workspace: ResMut<CcdWorkspace>,
+    colliders: Query<&Collider, Without<StaticCollider>>,
+) {
+    let workspace = workspace.as_mut();
+    let Some(settings) = workspace.settings.take() else {
+        return;
+    };
+    let statics = core::mem::take(&mut workspace.statics);
+    run_lanes(pool(&config), workspace, |chunk, lane| {
+        let Lane {
+            candidates,
+            impacts,
+            scratch,
+        } = lane;
+        impacts.clear();
+        for body in chunk {
+            // Nothing in reach: the body ends where its user put it, with its velocity, and
+            // `solve_body` would only confirm that (most bodies of a step, in a big level).
+            if body.error.is_some() || body.candidate_count == 0 {
+                continue;
+            }
+            let Ok(collider) = colliders.get(body.entity) else {
+                body.error = Some(CcdError::InvalidBodyData);
+                continue;
+            };
+            let state = BodyState {
+                proxy: *collider.proxy(),
+                local_center: body.sweep.local_center,
+                mass: body.mass,
+                inertia: body.inertia,
+                restitution: body.restitution,
+                friction: body.friction,
+                sweep: body.sweep,
+                velocity: (body.flags & HAS_VELOCITY != 0).then_some((body.velocity, body.angular)),
+                core_radius: collider.core_radius(),
+            };
+            let start = body.candidates as usize;
+            let list = &candidates[start..start + body.candidate_count as usize];
+            body.impacts = impacts.len() as u32;
+            let outcome = solve_body(&state, &statics, list, &settings, scratch, impacts);
+            body.position = outcome.position;
+            body.angle = outcome.angle;
+            if let Some((v, w)) = outcome.velocity {
+                body.velocity = v;
+                body.angular = w;
+            }
+            // Both counts are bounded by `max_substeps + 1`, a handful.
+            body.impact_count = outcome.impacts.min(u16::MAX as u32) as u16;
+            body.substeps = outcome.substeps.min(u16::MAX as u32) as u16;
+            if outcome.started_overlapping {
+                body.flags |= OVERLAPPING;
+            }
+            body.error = outcome.failure.map(CcdError::Toi);
+        }
+    });
+    workspace.statics = statics;
+    workspace.settings = Some(settings);
+}
+
+/// Puts a body in the error state, with a warning the first time this error shows.
 fn set_error(toi: &mut TimeOfImpact, entity: Entity, error: CcdError) {
     if toi.error != Some(error) {
         log::warn!("bevy_ccd: body {entity} not swept this step: {error:?}; left where it is");
@@ -214,163 +541,16 @@ fn set_error(toi: &mut TimeOfImpact, entity: Entity, error: CcdError) {
     };
 }
 
-/// [`super::CcdSystems::BroadPhase`], second half: gather every enabled body with valid data
-/// (in entity order) and query the hierarchy with its swept bound. Bodies with bad data get
-/// an error state and are left alone.
-pub(crate) fn gather_bodies(
-    config: Res<CcdConfig>,
-    time: Option<Res<Time<Fixed>>>,
-    mut workspace: ResMut<CcdWorkspace>,
-    mut bodies: BodyQuery,
-) {
-    let dt = step_length(&config, time.as_deref());
-    let workspace = workspace.as_mut();
-    workspace.bodies.clear();
-    workspace.settings = None;
-    let mode = match config.resolution {
-        Resolution::Clamp => ResolveMode::Clamp,
-        Resolution::SubStep { max_substeps } => ResolveMode::SubStep { max_substeps },
-    };
-    let step_ok = dt.is_finite() && dt > 0.0;
-    for (entity, collider, sweep, enabled, velocity, restitution, friction, mass, mut toi) in
-        &mut bodies
-    {
-        if !enabled.is_some_and(|e| e.0) || !sweep.recorded {
-            if toi.status != CcdStatus::Idle {
-                *toi = TimeOfImpact::default();
-            }
-            continue;
-        }
-        if !step_ok {
-            set_error(&mut toi, entity, CcdError::ZeroLengthStep);
-            continue;
-        }
-        let props = collider.mass_properties(1.0);
-        let local_center = props.center;
-        let motion = geometry::Sweep::from_origins(
-            local_center,
-            sweep.start_position,
-            sweep.start_angle,
-            sweep.end_position,
-            sweep.end_angle,
-        );
-        if !motion.is_finite() {
-            set_error(&mut toi, entity, CcdError::NonFiniteTransform);
-            continue;
-        }
-        let big = [motion.c0, motion.c1]
-            .iter()
-            .map(|c| c.abs().max_element())
-            .fold(0.0, f32::max);
-        if big > MAX_WORLD_COORDINATE {
-            set_error(&mut toi, entity, CcdError::CoordinatesTooLarge);
-            continue;
-        }
-        let (body_mass, inertia) =
-            mass.map_or((props.mass, props.inertia), |m| (m.mass, m.inertia));
-        let velocity = velocity.map(|v| (v.linear, v.angular));
-        let restitution = restitution.map_or(0.0, |r| r.0);
-        let friction = friction.map_or(0.0, |f| f.0);
-        let valid = body_mass.is_finite()
-            && body_mass > 0.0
-            && inertia.is_finite()
-            && inertia > 0.0
-            && restitution.is_finite()
-            && friction.is_finite()
-            && friction >= 0.0
-            && velocity.is_none_or(|(v, w)| v.is_finite() && w.is_finite());
-        if !valid {
-            set_error(&mut toi, entity, CcdError::InvalidBodyData);
-            continue;
-        }
-        let proxy = *collider.proxy();
-        workspace.bodies.push(BodyEntry {
-            entity,
-            state: BodyState {
-                proxy,
-                local_center,
-                mass: body_mass,
-                inertia,
-                restitution: restitution.clamp(0.0, 1.0),
-                friction,
-                sweep: motion,
-                velocity,
-                core_radius: 0.25 * proxy.inner_radius(local_center),
-            },
-            candidates: SmallVec::new(),
-        });
-    }
-    // Query order already follows the tables, usually in entity order: sort only if needed.
-    if !workspace.bodies.is_sorted_by_key(|b| b.entity) {
-        workspace.bodies.sort_by_key(|b| b.entity);
-    }
-    workspace.settings = Some(SolveSettings {
-        mode,
-        linear_slop: config.linear_slop,
-        dt,
-    });
-
-    let statics = &workspace.statics;
-    let margin = config.linear_slop;
-    let query = |chunk: &mut [BodyEntry]| {
-        let mut out = Vec::new();
-        for body in chunk {
-            out.clear();
-            statics.candidates(&body.state.proxy, &body.state.sweep, margin, &mut out);
-            body.candidates.clear();
-            body.candidates.extend_from_slice(&out);
-        }
-    };
-    if config.parallel && workspace.bodies.len() > 64 {
-        let pool = ComputeTaskPool::get_or_init(TaskPool::default);
-        let chunk = chunk_size(workspace.bodies.len(), pool.thread_num());
-        workspace
-            .bodies
-            .par_chunk_map_mut(pool, chunk, |_, c| query(c));
-    } else {
-        query(&mut workspace.bodies);
-    }
-}
-
-/// Chunks small enough that threads finish together, large enough to amortise a task.
-fn chunk_size(count: usize, threads: usize) -> usize {
-    count.div_ceil(threads.max(1) * 8).max(16)
-}
-
-/// [`super::CcdSystems::TimeOfImpact`]: bilateral advancement and resolution for every body,
-/// in parallel. Each body depends only on itself and the statics, so the results are the
-/// same on any number of threads.
-pub(crate) fn solve_bodies(config: Res<CcdConfig>, mut workspace: ResMut<CcdWorkspace>) {
-    let workspace = workspace.as_mut();
-    workspace.results.clear();
-    let Some(settings) = workspace.settings else {
-        return;
-    };
-    let statics = &workspace.statics;
-    let solve = |chunk: &[BodyEntry]| {
-        let mut scratch = Vec::new();
-        chunk
-            .iter()
-            .map(|b| solve_body(&b.state, statics, &b.candidates, &settings, &mut scratch))
-            .collect::<Vec<_>>()
-    };
-    if config.parallel && workspace.bodies.len() > 64 {
-        let pool = ComputeTaskPool::get_or_init(TaskPool::default);
-        let chunk = chunk_size(workspace.bodies.len(), pool.thread_num());
-        for part in workspace.bodies.par_chunk_map(pool, chunk, |_, c| solve(c)) {
-            workspace.results.extend(part);
-        }
-    } else {
-        let results = solve(&workspace.bodies);
-        workspace.results.extend(results);
-    }
-}
-
-/// [`super::CcdSystems::Resolve`]: write poses, velocities, outcomes and messages back.
+/// [`super::CcdSystems::Resolve`]: write poses, velocities and outcomes back (in parallel:
+/// each body finds its entry through [`Sweep`]'s slot), then the impact messages (serially,
+/// in gathering order).
+#[allow(clippy::type_complexity)]
 pub(crate) fn write_back(
+    config: Res<CcdConfig>,
     workspace: Res<CcdWorkspace>,
     mut bodies: Query<
         (
+            Entity,
             &mut Transform,
             &mut Sweep,
             Option<&mut Velocity>,
@@ -380,43 +560,68 @@ pub(crate) fn write_back(
     >,
     mut impacts: MessageWriter<CcdImpact>,
 ) {
-    for (body, result) in workspace.bodies.iter().zip(&workspace.results) {
-        let Ok((mut transform, mut sweep, velocity, mut toi)) = bodies.get_mut(body.entity) else {
-            continue;
+    let ws = workspace.as_ref();
+    let lane_len = ws.lane_len.max(1);
+    let other = |target: u32| ws.static_entities[target as usize];
+    let write = |(entity, mut transform, mut sweep, velocity, mut toi): (
+        Entity,
+        Mut<Transform>,
+        Mut<Sweep>,
+        Option<Mut<Velocity>>,
+        Mut<TimeOfImpact>,
+    )| {
+        let Some(index) = (sweep.slot as usize).checked_sub(1) else {
+            return;
         };
-        let other = |target: u32| workspace.static_entities[target as usize];
+        let Some(body) = ws.bodies.get(index).filter(|b| b.entity == entity) else {
+            return;
+        };
+        let failed = matches!(body.error, Some(e) if !matches!(e, CcdError::Toi(_)));
+        if failed {
+            set_error(
+                &mut toi,
+                entity,
+                body.error.unwrap_or(CcdError::InvalidBodyData),
+            );
+            return;
+        }
         // Without an impact or a failure the body ends where its user put it: that pose is
         // left exactly as it is (the solver's went through the centre of mass and back, and
         // a rebuilt rotation would not have the user's bits).
-        let (position, angle) = if result.impacts.is_empty() && result.failure.is_none() {
+        let (position, angle) = if body.impact_count == 0 && body.error.is_none() {
             (sweep.end_position, sweep.end_angle)
         } else {
-            (result.position, result.angle)
+            (body.position, body.angle)
         };
         if position != sweep.end_position || angle != sweep.end_angle {
             transform.translation.x = position.x;
             transform.translation.y = position.y;
             transform.rotation = Quat::from_rotation_z(angle);
         }
+        let sweep = sweep.as_mut();
         sweep.resolved_position = position;
         sweep.resolved_angle = angle;
-        sweep.local_center = body.state.local_center;
-        if let (Some(mut v), Some((linear, angular))) = (velocity, result.velocity)
-            && (v.linear != linear || v.angular != angular)
+        sweep.local_center = body.sweep.local_center;
+        if let Some(mut v) = velocity
+            && body.flags & HAS_VELOCITY != 0
+            && (v.linear != body.velocity || v.angular != body.angular)
         {
-            v.linear = linear;
-            v.angular = angular;
+            v.linear = body.velocity;
+            v.angular = body.angular;
         }
-        let first_hit = result.impacts.first().map(|i| Impact {
-            other: other(i.target),
-            fraction: i.fraction,
-            point: i.point,
-            normal: i.normal,
+        let lane = &ws.lanes[index / lane_len];
+        let first_hit = (body.impact_count > 0).then(|| {
+            let i = lane.impacts[body.impacts as usize];
+            Impact {
+                other: other(i.target),
+                fraction: i.fraction,
+                point: i.point,
+                normal: i.normal,
+            }
         });
-        let status = if let Some(f) = result.failure {
-            toi.error = Some(CcdError::Toi(f));
+        let status = if body.error.is_some() {
             CcdStatus::Error
-        } else if result.started_overlapping {
+        } else if body.flags & OVERLAPPING != 0 {
             CcdStatus::Overlapping
         } else if first_hit.is_some() {
             CcdStatus::Hit
@@ -426,11 +631,24 @@ pub(crate) fn write_back(
         *toi = TimeOfImpact {
             status,
             first_hit,
-            error: result.failure.map(CcdError::Toi),
-            impacts: result.impacts.len() as u32,
-            substeps: result.substeps,
+            error: body.error,
+            impacts: body.impact_count as u32,
+            substeps: body.substeps as u32,
         };
-        for (k, i) in result.impacts.iter().enumerate() {
+    };
+    if pool(&config).is_some() {
+        bodies.par_iter_mut().for_each(write);
+    } else {
+        bodies.iter_mut().for_each(write);
+    }
+    for (index, body) in ws.bodies.iter().enumerate() {
+        if body.impact_count == 0 {
+            continue;
+        }
+        let lane = &ws.lanes[index / lane_len];
+        let start = body.impacts as usize;
+        let list = &lane.impacts[start..start + body.impact_count as usize];
+        for (k, i) in list.iter().enumerate() {
             impacts.write(CcdImpact {
                 body: body.entity,
                 other: other(i.target),
