@@ -658,9 +658,14 @@ fn profile(mode: &str) {
         .and_then(|s| s.parse().ok())
         .unwrap_or(500);
     let lvl = level(10_000, 1_000);
-    pair_stats(&lvl);
+    if std::env::var_os("SCENE_PAIR_STATS").is_some() {
+        pair_stats(&lvl);
+    }
     let mut ours = Ours::new(&lvl);
-    ours.configure(resolution, false);
+    ours.configure(
+        resolution,
+        std::env::var_os("SCENE_PROFILE_PARALLEL").is_some(),
+    );
     let mut phases: Vec<Phases> = (0..steps).map(|_| ours.step()).collect();
     let names = [
         "step",

@@ -14,7 +14,7 @@ mod toi;
 pub use bvh::Bvh;
 pub use constants::{LINEAR_SLOP, MAX_POLYGON_VERTICES, MAX_WORLD_COORDINATE};
 pub use gjk::{DistanceInput, DistanceOutput, SimplexCache, shape_distance};
-pub use math::{Pose, Rot, cross, left_perp, right_perp};
+pub use math::{Pose, Rot, atan2, cross, left_perp, right_perp};
 pub use proxy::ShapeProxy;
 pub use resolve::{
     BodyOutcome, BodyState, ImpactRecord, ResolveMode, SolveSettings, StaticItem, StaticSet,
