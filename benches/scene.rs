@@ -582,6 +582,49 @@ fn bench_custom(
     samples
 }
 
+/// Our 1-thread step time over our 2-thread step time for `mode`, from rounds in which the two
+/// alternate step by step for about two seconds (at least 15 and at most 400 rounds): the
+/// ratio of the two medians. Also returns the number of rounds.
+fn paired_speedup(app: &mut Ours, mode: Resolution) -> (f64, usize) {
+    let (mut one, mut two) = (Vec::new(), Vec::new());
+    let start = Instant::now();
+    while one.len() < 400 && (one.len() < 15 || start.elapsed().as_secs_f64() < 2.0) {
+        app.configure(mode, false);
+        one.push(app.step()[0]);
+        app.configure(mode, true);
+        two.push(app.step()[0]);
+    }
+    let rounds = one.len();
+    (median(&mut one) / median(&mut two), rounds)
+}
+
+/// Seconds a peer's CCD adds to one step: the median over rounds of `on - off`, the two
+/// worlds stepping alternately from their reset state, for about two seconds (at least 15
+/// and at most 400 rounds). Also returns the number of rounds.
+fn paired_difference(off: &mut dyn Peer, on: &mut dyn Peer) -> (f64, usize) {
+    let mut diffs = Vec::new();
+    let start = Instant::now();
+    while diffs.len() < 400 && (diffs.len() < 15 || start.elapsed().as_secs_f64() < 2.0) {
+        let time = |peer: &mut dyn Peer| {
+            peer.reset();
+            let t = Instant::now();
+            peer.step();
+            t.elapsed().as_secs_f64()
+        };
+        // Alternate which goes first, so neither always runs on a cache the other warmed.
+        let (a, b) = if diffs.len() % 2 == 0 {
+            let a = time(off);
+            (a, time(on))
+        } else {
+            let b = time(on);
+            (time(off), b)
+        };
+        diffs.push(b - a);
+    }
+    let rounds = diffs.len();
+    (median(&mut diffs), rounds)
+}
+
 fn mode_name(r: Resolution) -> &'static str {
     match r {
         Resolution::Clamp => "clamp",
@@ -705,6 +748,8 @@ fn main() {
     let mut phases_out = String::new();
     let mut memory = String::new();
     let mut kernels_out = String::new();
+    // (n, m, mode) -> (1-thread over 2-thread step time from paired rounds, rounds)
+    let mut speedups: BTreeMap<(usize, usize, &str), (f64, usize)> = BTreeMap::new();
     for &m in ms {
         for &n in ns {
             let t = Instant::now();
@@ -758,6 +803,8 @@ fn main() {
                         .unwrap();
                     }
                 }
+                let (speedup, rounds) = paired_speedup(&mut app, mode);
+                speedups.insert((n, m, mode_name(mode)), (speedup, rounds));
             }
             {
                 let w = app.app.world();
@@ -799,15 +846,31 @@ fn main() {
                     );
                     let s = median(&mut s);
                     let total = ours[&(n, m, mode_name(mode), 1)];
+                    // Paired: the plugin step (1 thread) and the two kernels alternate, so that
+                    // the share is not skewed by the machine drifting between measurements.
+                    app.configure(mode, false);
+                    let (mut ps, mut qs, mut ss) = (Vec::new(), Vec::new(), Vec::new());
+                    let start = Instant::now();
+                    while ps.len() < 400 && (ps.len() < 15 || start.elapsed().as_secs_f64() < 3.0) {
+                        ps.push(app.step()[0]);
+                        qs.push(k.time_queries());
+                        ss.push(k.time_solve(&cands, rm));
+                    }
+                    let rounds = ps.len();
+                    let (pp, pq, psv) = (median(&mut ps), median(&mut qs), median(&mut ss));
                     writeln!(
                         kernels_out,
-                        "| {} | {:.3} | {:.3} | {:.3} | {:.3} | {:.1} % | {mean_c:.2} |",
+                        "| {} | {:.3} | {:.3} | {:.3} | {:.3} | {:.1} % | {:.3} / {:.3} / {:.3} | {:.1} % ({rounds}) | {mean_c:.2} |",
                         mode_name(mode),
                         total * 1e3,
                         q * 1e3,
                         s * 1e3,
                         (total - q - s) * 1e3,
-                        100.0 * (total - q - s) / total
+                        100.0 * (total - q - s) / total,
+                        pp * 1e3,
+                        pq * 1e3,
+                        psv * 1e3,
+                        100.0 * (pp - pq - psv) / pp,
                     )
                     .unwrap();
                 }
@@ -822,18 +885,19 @@ fn main() {
     .unwrap();
     writeln!(
         out,
-        "| N | M | mode | 1 thread ms | 2 threads ms | 1t µs/body | 2t µs/body | speed-up |"
+        "| N | M | mode | 1 thread ms | 2 threads ms | 1t µs/body | 2t µs/body | speed-up | speed-up, paired (rounds) |"
     )
     .unwrap();
-    writeln!(out, "|---|---|---|---|---|---|---|---|").unwrap();
+    writeln!(out, "|---|---|---|---|---|---|---|---|---|").unwrap();
     for &m in ms {
         for &n in ns {
             for mode in modes {
                 let a = ours[&(n, m, mode_name(mode), 1)];
                 let b = ours[&(n, m, mode_name(mode), threads)];
+                let (su, rounds) = speedups[&(n, m, mode_name(mode))];
                 writeln!(
                     out,
-                    "| {n} | {m} | {} | {:.3} | {:.3} | {:.3} | {:.3} | {:.2}x |",
+                    "| {n} | {m} | {} | {:.3} | {:.3} | {:.3} | {:.3} | {:.2}x | {su:.2}x ({rounds}) |",
                     mode_name(mode),
                     a * 1e3,
                     b * 1e3,
@@ -858,8 +922,8 @@ fn main() {
         "\n### Ours: geometry kernels alone vs the 1-thread step, N = 10k, M = 1k (ms)\n"
     )
     .unwrap();
-    writeln!(out, "| mode | plugin step (1 t) | BVH queries | solve_body (TOI + response) | rest = plugin overhead | overhead share | mean candidates/body |").unwrap();
-    writeln!(out, "|---|---|---|---|---|---|---|").unwrap();
+    writeln!(out, "| mode | plugin step (1 t) | BVH queries | solve_body (TOI + response) | rest = plugin overhead | overhead share | paired rounds: step / queries / solve | overhead share, paired (rounds) | mean candidates/body |").unwrap();
+    writeln!(out, "|---|---|---|---|---|---|---|---|---|").unwrap();
     out.push_str(&kernels_out);
     writeln!(out, "\n### Memory kept per CCD body (bytes)\n").unwrap();
     writeln!(
@@ -878,8 +942,8 @@ fn main() {
         "\n### Peers: median full step (ms), CCD on vs off, 1 thread\n"
     )
     .unwrap();
-    writeln!(out, "| engine | N | M | step CCD off | step CCD on | CCD cost/body (µs) | bodies its CCD moved | ours clamp 1t µs/body | ours clamp / peer | ours substep 1t µs/body | ours substep 2t µs/body |").unwrap();
-    writeln!(out, "|---|---|---|---|---|---|---|---|---|---|---|").unwrap();
+    writeln!(out, "| engine | N | M | step CCD off | step CCD on | CCD cost/body from the two medians (µs) | CCD cost/body, paired (µs) (rounds) | bodies its CCD moved | ours clamp 1t µs/body | ours clamp / peer (paired) | ours substep 1t µs/body | ours substep 2t µs/body |").unwrap();
+    writeln!(out, "|---|---|---|---|---|---|---|---|---|---|---|---|").unwrap();
     let peer_ms: &[usize] = if quick { &[1_000] } else { &[1_000, 100_000] };
     for &m in peer_ms {
         for &n in &[1_000usize, 10_000] {
@@ -887,6 +951,7 @@ fn main() {
             for engine in ["box2d", "box2d bullets", "rapier", "rapier ccd_enabled"] {
                 let mut med = [0.0; 2];
                 let mut ends: [Vec<Vec2>; 2] = Default::default();
+                let mut worlds: Vec<Box<dyn Peer>> = Vec::new();
                 for (k, ccd) in [false, true].into_iter().enumerate() {
                     let t = Instant::now();
                     let mut peer: Box<dyn Peer> = match engine {
@@ -921,7 +986,15 @@ fn main() {
                     peer.reset();
                     peer.step();
                     ends[k] = peer.positions();
+                    worlds.push(peer);
                 }
+                // The added cost from paired rounds: the two worlds step alternately from the
+                // same reset state and the median of the per-round differences is taken, which
+                // cancels the machine's slow drifts that two separate medians keep.
+                let (paired, rounds) = {
+                    let (off, on) = worlds.split_at_mut(1);
+                    paired_difference(off[0].as_mut(), on[0].as_mut())
+                };
                 // Evidence that the peer's CCD did work in the timed step: bodies whose end
                 // position it changed by more than a millimetre.
                 let changed = ends[0]
@@ -929,7 +1002,8 @@ fn main() {
                     .zip(&ends[1])
                     .filter(|(a, b)| a.distance(**b) > 1e-3)
                     .count();
-                let per = (med[1] - med[0]) * 1e6 / n as f64;
+                let per = paired * 1e6 / n as f64;
+                let per_separate = (med[1] - med[0]) * 1e6 / n as f64;
                 let oc = ours
                     .get(&(n, m, "clamp", 1))
                     .map_or(f64::NAN, |x| x * 1e6 / n as f64);
@@ -946,7 +1020,7 @@ fn main() {
                 };
                 writeln!(
                     out,
-                    "| {engine} | {n} | {m} | {:.3} | {:.3} | {per:.3} | {changed} | {oc:.3} | {ratio} | {os:.3} | {os2:.3} |",
+                    "| {engine} | {n} | {m} | {:.3} | {:.3} | {per_separate:.3} | {per:.3} ({rounds}) | {changed} | {oc:.3} | {ratio} | {os:.3} | {os2:.3} |",
                     med[0] * 1e3,
                     med[1] * 1e3,
                 )

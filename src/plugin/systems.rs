@@ -1,6 +1,7 @@
 //! The systems: thin layers that gather data from the world, call the geometry layer and
 //! write the answers back.
 
+use bevy_ecs::batching::BatchingStrategy;
 use bevy_ecs::prelude::*;
 use bevy_tasks::{ComputeTaskPool, TaskPool};
 use bevy_time::{Fixed, Time};
@@ -159,6 +160,12 @@ fn pool(config: &CcdConfig) -> Option<&'static TaskPool> {
     (pool.thread_num() > 1).then_some(&**pool)
 }
 
+/// How the per-body passes over the queries split their work: several batches per thread, as
+/// for the lanes, so that a thread held up elsewhere does not leave half the bodies waiting.
+fn batching() -> BatchingStrategy {
+    BatchingStrategy::new().batches_per_thread(LANES_PER_THREAD)
+}
+
 /// Runs `work` on every lane: in parallel, one task per lane, when `pool` is given.
 fn run_lanes(
     pool: Option<&TaskPool>,
@@ -216,7 +223,10 @@ pub(crate) fn record_start(
         }
     };
     if pool(&config).is_some() {
-        bodies.par_iter_mut().for_each(record);
+        bodies
+            .par_iter_mut()
+            .batching_strategy(batching())
+            .for_each(record);
     } else {
         bodies.iter_mut().for_each(record);
     }
@@ -258,7 +268,10 @@ pub(crate) fn record_end(
         sweep.end_angle = sweep.start_angle + delta;
     };
     if pool(&config).is_some() {
-        bodies.par_iter_mut().for_each(record);
+        bodies
+            .par_iter_mut()
+            .batching_strategy(batching())
+            .for_each(record);
     } else {
         bodies.iter_mut().for_each(record);
     }
@@ -375,7 +388,11 @@ pub(crate) fn gather_bodies(
         entry.restitution = restitution.map_or(0.0, |r| r.0);
         entry.friction = friction.map_or(0.0, |f| f.0);
         entries.push(entry);
-        sweep.slot = entries.len() as u32;
+        // Usually the same slot as last step: then leave the component unwritten.
+        let slot = entries.len() as u32;
+        if sweep.slot != slot {
+            sweep.slot = slot;
+        }
     }
     let pool = pool(&config);
     let lanes = pool.map_or(1, |p| p.thread_num() * LANES_PER_THREAD);
@@ -663,7 +680,10 @@ pub(crate) fn write_back(
         }
     };
     if pool(&config).is_some() {
-        bodies.par_iter_mut().for_each(write);
+        bodies
+            .par_iter_mut()
+            .batching_strategy(batching())
+            .for_each(write);
     } else {
         bodies.iter_mut().for_each(write);
     }
