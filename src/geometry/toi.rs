@@ -474,11 +474,19 @@ impl MotionBounds {
     }
 }
 
-/// Solves `s(t) = target` on `[a1, a2]` where `s(a1) > target > s(a2)`, alternating bisection
-/// and false position as Box2D does (bisection guarantees the bracket halves every other step,
-/// false position converges fast where `s` is smooth). Returns the root and the iterations,
-/// or the left end of the last bracket (where `s > target`, so still clear) if the iterations
-/// ran out.
+/// Solves `s(t) = target` on `[a1, a2]` where `s(a1) > target > s(a2)`. Returns the root and
+/// the iterations, or the left end of the last bracket (where `s > target`, so still clear) if
+/// the iterations ran out.
+///
+/// The method is Anderson–Björck regula falsi (N. Anderson and Å. Björck, "A new high order
+/// method of regula falsi type for computing a root of an equation", BIT 13, 1973), with a
+/// bisection safeguard. Box2D alternates false position and bisection; every other step of
+/// that is a bisection, even where `s` is nearly linear and false position alone would land
+/// on the root. Plain false position stalls when `s` is convex or concave on the bracket (one
+/// end never moves); Anderson–Björck scales the value at the end that stayed by
+/// `m = 1 - g_new / g_old` (½ when that is not positive), with `g = s - target`, which keeps
+/// the convergence superlinear. The safeguard: when two steps have not halved the bracket the
+/// next step bisects, so the worst case is no slower than Box2D's alternation.
 #[inline]
 #[allow(clippy::too_many_arguments)] // the bracket and its values, as Box2D passes them
 fn find_root(
@@ -488,31 +496,52 @@ fn find_root(
     target: f32,
     tolerance: f32,
     mut a1: f32,
-    mut s1: f32,
+    s1: f32,
     mut a2: f32,
-    mut s2: f32,
+    s2: f32,
 ) -> (f32, u32) {
+    // g > 0 at a1, g < 0 at a2; the scaled values the secant uses.
+    let (mut g1, mut g2) = (s1 - target, s2 - target);
+    // Which end the last step replaced: 1, 2, or 0 for none yet.
+    let mut last = 0u8;
+    // The bracket width two steps ago, for the safeguard.
+    let mut width_before = a2 - a1;
     let mut iterations = 0;
     loop {
-        // False position first: it lands on the root at once where `s` is linear (no
-        // rotation), and bisection still halves the bracket every other step.
-        let t = if iterations & 1 == 0 {
-            // False position (the secant through the bracket ends).
-            a1 + (target - s1) * (a2 - a1) / (s2 - s1)
-        } else {
+        let width = a2 - a1;
+        let bisect = iterations % 2 == 0 && iterations > 0 && width > 0.5 * width_before;
+        if iterations % 2 == 0 {
+            width_before = width;
+        }
+        let secant = a1 + g1 * width / (g1 - g2);
+        // Bisect on the safeguard, and when rounding put the secant outside the open bracket.
+        let t = if bisect || !(secant > a1 && secant < a2) {
             0.5 * (a1 + a2)
+        } else {
+            secant
         };
         iterations += 1;
         let s = f.evaluate(ia, ib, t);
         if (s - target).abs() < tolerance {
             return (t, iterations);
         }
-        if s > target {
+        let g = s - target;
+        if g > 0.0 {
+            if last == 1 {
+                let m = 1.0 - g / g1;
+                g2 *= if m > 0.0 { m } else { 0.5 };
+            }
             a1 = t;
-            s1 = s;
+            g1 = g;
+            last = 1;
         } else {
+            if last == 2 {
+                let m = 1.0 - g / g2;
+                g1 *= if m > 0.0 { m } else { 0.5 };
+            }
             a2 = t;
-            s2 = s;
+            g2 = g;
+            last = 2;
         }
         if iterations == ROOT_MAX_ITERATIONS || a2 - a1 <= f32::EPSILON * a2 {
             return (a1, iterations);
