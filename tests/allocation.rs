@@ -84,7 +84,7 @@ fn steady_state_steps_allocate_nothing() {
         app.update();
     }
     let world = app.world_mut();
-    let mut step = |world: &mut bevy_ecs::world::World, count: bool| {
+    let step = |world: &mut bevy_ecs::world::World, count: bool| {
         // As the app does between steps: the message buffers swap, keeping their capacity.
         world.resource_mut::<Messages<CcdImpact>>().update();
         COUNTING.store(count, Ordering::SeqCst);
