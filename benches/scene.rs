@@ -8,7 +8,15 @@
 //! ```text
 //! CARGO_TARGET_DIR=target-scene cargo bench --bench scene
 //! SCENE_QUICK=1 ...   # N in {1k, 10k} only, peers at M = 1k only
+//! SCENE_PROFILE=clamp|substep ...   # only our 10k x 1k step, 1 thread, for `perf record`
+//!                                   # (SCENE_PROFILE_PARALLEL=1: on the pool; SCENE_PAIR_STATS=1:
+//!                                   # time-of-impact statistics per pair class first)
 //! ```
+//!
+//! The machine this runs on drifts by more than the targets' margins over minutes, so each
+//! ratio is also measured in *paired rounds* (the two sides alternate step by step for about
+//! two seconds and the medians of the two series are compared): 1 vs 2 threads, the plugin
+//! step vs its kernels, and each peer with its CCD on vs off.
 //!
 //! Every timed iteration starts from the same state: the bodies are put back at their start
 //! pose and velocity (untimed), `RecordStart` runs (timed), the bodies are moved to their free
