@@ -10,7 +10,8 @@
 //! SCENE_QUICK=1 ...   # N in {1k, 10k} only, peers at M = 1k only
 //! SCENE_PROFILE=clamp|substep ...   # only our 10k x 1k step, 1 thread, for `perf record`
 //!                                   # (SCENE_PROFILE_PARALLEL=1: on the pool; SCENE_PAIR_STATS=1:
-//!                                   # time-of-impact statistics per pair class first)
+//!                                   # time-of-impact statistics per pair class first;
+//!                                   # SCENE_SPEEDUP=1: three paired 1-vs-2-thread ratios)
 //! ```
 //!
 //! The machine this runs on drifts by more than the targets' margins over minutes, so each
@@ -713,6 +714,13 @@ fn profile(mode: &str) {
         pair_stats(&lvl);
     }
     let mut ours = Ours::new(&lvl);
+    if std::env::var_os("SCENE_SPEEDUP").is_some() {
+        for _ in 0..3 {
+            let (speedup, rounds) = paired_speedup(&mut ours, resolution);
+            println!("paired speed-up {speedup:.3} ({rounds} rounds)");
+        }
+        return;
+    }
     ours.configure(
         resolution,
         std::env::var_os("SCENE_PROFILE_PARALLEL").is_some(),

@@ -182,7 +182,8 @@ fn approaching(sweep: &Sweep, point: Vec2, normal: Vec2, threshold: f32) -> bool
 ///
 /// Derivation. At every fraction `t` the body's core lies within `reach` of its centre of
 /// mass `c(t)` (`reach` is the farthest core point from the centre; rotation does not change
-/// it), and the angle model moves `c(t)` along the segment `c0 → c1`. So at every `t` the core
+/// it), and the angle model moves `c(t)` along the segment `c0 → c1` (for `t ≤ t_max`, along
+/// `c0 → c(t_max)`). So at every `t` the core
 /// distance between body and target is at least `d(segment c0 c1, target core) - reach`. The
 /// time of impact reports a hit only where the core distance comes within `target + tolerance`
 /// = `total radius + slop + slop / 4` (see [`time_of_impact`]); if the bound stays above that,
@@ -193,10 +194,12 @@ fn out_of_reach(
     reach: f32,
     proxy: &ShapeProxy,
     sweep: &Sweep,
+    t_max: f32,
     target: &StaticItem,
     slop: f32,
 ) -> bool {
-    let path = sweep.c1 - sweep.c0;
+    // Over `[0, t_max]` the centre runs from `c0` to `c(t_max)`.
+    let path = sweep.center_at(t_max) - sweep.c0;
     let points = [Vec2::ZERO, path];
     let count = if path == Vec2::ZERO { 1 } else { 2 };
     let segment = ShapeProxy::from_parts(&points[..count], 0.0);
@@ -228,18 +231,23 @@ fn out_of_reach(
 /// - cores overlapping (deep): Box2D's fallback, the same query with a small circle at the
 ///   centre of mass; if the centre itself is inside a polygon target, motion that takes it
 ///   further in across the face it is nearest to is stopped, other motion is let through.
+///
+/// Only `[0, t_max]` of the sweep is searched: the caller passes the earliest hit found so far
+/// against other targets, since a later one could not change the answer.
 fn pair_toi(
     body: &BodyState,
     reach: f32,
     sweep: &Sweep,
     target: &StaticItem,
     slop: f32,
+    t_max: f32,
 ) -> PairOutcome {
-    if out_of_reach(reach, &body.proxy, sweep, target, slop) {
+    if out_of_reach(reach, &body.proxy, sweep, t_max, target, slop) {
         return PairOutcome::Clear { overlapping: false };
     }
     let target_sweep = Sweep::stationary(Vec2::ZERO, target.position, target.angle);
     let mut input = ToiInput::new(body.proxy, *sweep, target.proxy, target_sweep);
+    input.max_fraction = t_max;
     input.config = ToiConfig {
         linear_slop: slop,
         target_separation: None,
@@ -613,7 +621,15 @@ pub fn solve_body(
             let Some(target) = statics.items.get(index as usize) else {
                 continue;
             };
-            match pair_toi(body, reach, &sweep, target, slop) {
+            // A target hit later than the earliest hit or failure so far cannot change the
+            // answer: search it only up to there.
+            let t_max = match (best, failed) {
+                (Some(b), Some(f)) => b.0.min(f.0),
+                (Some(b), None) => b.0,
+                (None, Some(f)) => f.0,
+                (None, None) => 1.0,
+            };
+            match pair_toi(body, reach, &sweep, target, slop, t_max) {
                 PairOutcome::Clear { overlapping } => {
                     result.started_overlapping |= overlapping && first;
                 }
@@ -761,8 +777,14 @@ mod tests {
             let a1 = a0 + rng.range(-12.6, 12.6);
             let sweep = Sweep::new(Vec2::ZERO, c0, a0, c1, a1);
             let reach = proxy.max_distance_from(Vec2::ZERO);
+            // Half the cases search the whole sweep, half a prefix of it.
+            let t_max = if rng.next() < 0.5 {
+                1.0
+            } else {
+                rng.range(0.0, 1.0)
+            };
             cases += 1;
-            if !out_of_reach(reach, &proxy, &sweep, &target, slop) {
+            if !out_of_reach(reach, &proxy, &sweep, t_max, &target, slop) {
                 continue;
             }
             skipped += 1;
@@ -773,11 +795,12 @@ mod tests {
                 Sweep::stationary(Vec2::ZERO, target.position, target.angle),
             );
             input.config.linear_slop = slop;
+            input.max_fraction = t_max;
             let out = time_of_impact(&input);
             assert_eq!(
                 out.state,
                 ToiState::Separated,
-                "skipped a pair the full query calls {:?} at {} (sweep {sweep:?}, target {target:?})",
+                "skipped a pair the full query calls {:?} at {} (sweep {sweep:?}, t_max {t_max}, target {target:?})",
                 out.state,
                 out.fraction
             );
