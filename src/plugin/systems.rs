@@ -3,6 +3,7 @@
 
 use bevy_ecs::batching::BatchingStrategy;
 use bevy_ecs::prelude::*;
+use bevy_ecs::query::{IterQueryData, QueryFilter, QueryItem};
 use bevy_tasks::{ComputeTaskPool, TaskPool};
 use bevy_time::{Fixed, Time};
 use bevy_transform::components::Transform;
@@ -162,10 +163,22 @@ fn pool(config: &CcdConfig) -> Option<&'static TaskPool> {
     (pool.thread_num() > 1).then_some(&**pool)
 }
 
-/// How the per-body passes over the queries split their work: several batches per thread, as
-/// for the lanes, so that a thread held up elsewhere does not leave half the bodies waiting.
-fn batching() -> BatchingStrategy {
-    BatchingStrategy::new().batches_per_thread(LANES_PER_THREAD)
+/// Runs `f` on every item of `query`: on the task pool when the config asks for it (in several
+/// batches per thread, as for the lanes, so that a thread held up elsewhere does not leave
+/// half the bodies waiting), else in order on this thread.
+fn for_each_body<'a, 's, D: IterQueryData, F: QueryFilter>(
+    config: &CcdConfig,
+    query: &'a mut Query<'_, 's, D, F>,
+    f: impl Fn(QueryItem<'a, 's, D>) + Send + Sync + Clone,
+) {
+    if pool(config).is_some() {
+        query
+            .par_iter_mut()
+            .batching_strategy(BatchingStrategy::new().batches_per_thread(LANES_PER_THREAD))
+            .for_each(f);
+    } else {
+        query.iter_mut().for_each(f);
+    }
 }
 
 /// Runs `work` on every lane: in parallel, one task per lane, when `pool` is given.
@@ -224,14 +237,7 @@ pub(crate) fn record_start(
             sweep.start_position = Vec2::NAN;
         }
     };
-    if pool(&config).is_some() {
-        bodies
-            .par_iter_mut()
-            .batching_strategy(batching())
-            .for_each(record);
-    } else {
-        bodies.iter_mut().for_each(record);
-    }
+    for_each_body(&config, &mut bodies, record);
 }
 
 /// [`super::CcdSystems::RecordEnd`]: the end pose, with the angle unwrapped.
@@ -269,14 +275,7 @@ pub(crate) fn record_end(
         }
         sweep.end_angle = sweep.start_angle + delta;
     };
-    if pool(&config).is_some() {
-        bodies
-            .par_iter_mut()
-            .batching_strategy(batching())
-            .for_each(record);
-    } else {
-        bodies.iter_mut().for_each(record);
-    }
+    for_each_body(&config, &mut bodies, record);
 }
 
 /// [`super::CcdSystems::BroadPhase`], first half: rebuild the static hierarchy when a static
@@ -690,14 +689,7 @@ pub(crate) fn write_back(
             *toi = outcome;
         }
     };
-    if pool(&config).is_some() {
-        bodies
-            .par_iter_mut()
-            .batching_strategy(batching())
-            .for_each(write);
-    } else {
-        bodies.iter_mut().for_each(write);
-    }
+    for_each_body(&config, &mut bodies, write);
     // Lane by lane, in gathering order; each lane's `hit` list names its bodies with impacts,
     // so the others are not visited again.
     for (lane, first) in ws.lanes.iter().zip((0..ws.bodies.len()).step_by(lane_len)) {
