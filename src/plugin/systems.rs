@@ -188,7 +188,8 @@ fn run_lanes(
     work: impl Fn(&mut [BodyEntry], &mut Lane) + Sync,
 ) {
     match pool {
-        Some(pool) if workspace.lanes.len() > 1 => {
+        // More than one lane in use this step (`lanes` may hold more, from larger steps).
+        Some(pool) if workspace.bodies.len() > workspace.lane_len => {
             let work = &work;
             pool.scope(|s| {
                 for (bodies, lane) in workspace.lanes_mut() {
