@@ -65,13 +65,7 @@ impl Sweep {
                 p1 + Rot::from_angle(a1).rotate(local_center),
             )
         };
-        Self {
-            local_center,
-            c0,
-            c1,
-            a0,
-            a1,
-        }
+        Self::new(local_center, c0, a0, c1, a1)
     }
 
     /// A body at rest at `pose` (origin position and angle).
