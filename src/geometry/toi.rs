@@ -183,8 +183,50 @@ impl ToiOutput {
     }
 }
 
+/// The start angle reduced to `[-pi, pi]`, so that sin/cos keep their precision; the rotation
+/// over the step is kept whole.
+#[inline]
+fn reduced_angle(a0: f32) -> f32 {
+    if a0.abs() <= core::f32::consts::PI {
+        a0
+    } else {
+        a0 - (a0 / core::f32::consts::TAU).round() * core::f32::consts::TAU
+    }
+}
+
+/// What the query needs of one body that does not depend on the other: the rotation at the
+/// start of its sweep (a sine and cosine) and its reach. A caller that runs many queries of
+/// the same sweep (a body against each of its candidate targets, or a static target against
+/// every body) computes it once and passes it to [`time_of_impact_framed`]; the answer is
+/// bit-identical to [`time_of_impact`]'s.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct BodyFrame {
+    q0: Rot,
+    /// Largest distance of a core point from the centre of mass (m).
+    reach: f32,
+}
+
+impl BodyFrame {
+    /// The frame of `proxy` moving along `sweep`.
+    pub(crate) fn new(sweep: &Sweep, proxy: &ShapeProxy) -> Self {
+        Self::with_reach(sweep, proxy.max_distance_from(sweep.local_center))
+    }
+
+    /// The rotation at the start of the sweep.
+    pub(crate) fn rotation(&self) -> Rot {
+        self.q0
+    }
+
+    /// The same, with the reach already known (`proxy.max_distance_from(local_center)`).
+    pub(crate) fn with_reach(sweep: &Sweep, reach: f32) -> Self {
+        Self {
+            q0: Rot::from_angle(reduced_angle(sweep.a0)),
+            reach,
+        }
+    }
+}
+
 /// A sweep prepared for evaluation: origin-shifted, with its motion and reach precomputed.
-#[derive(Clone, Copy)]
 struct Motion {
     c0: Vec2,
     v: Vec2,
@@ -197,29 +239,16 @@ struct Motion {
 }
 
 impl Motion {
-    /// `any_rotation`: whether either body turns (the reach is needed only then).
-    fn new(sweep: &Sweep, origin: Vec2, proxy: &ShapeProxy, any_rotation: bool) -> Self {
-        let w = sweep.a1 - sweep.a0;
-        // Reduce the start angle to [-pi, pi] so that sin/cos keep their precision; the
-        // rotation over the step is kept whole.
-        let a0 = if sweep.a0.abs() <= core::f32::consts::PI {
-            sweep.a0
-        } else {
-            sweep.a0 - (sweep.a0 / core::f32::consts::TAU).round() * core::f32::consts::TAU
-        };
+    /// `frame`: the body's start rotation and reach, as [`BodyFrame::new`] computes them.
+    fn new(sweep: &Sweep, origin: Vec2, frame: BodyFrame) -> Self {
         Self {
             c0: sweep.c0 - origin,
             v: sweep.c1 - sweep.c0,
-            a0,
-            w,
+            a0: reduced_angle(sweep.a0),
+            w: sweep.a1 - sweep.a0,
             local_center: sweep.local_center,
-            q0: Rot::from_angle(a0),
-            // Only the motion bounds use the reach, always multiplied by an angular speed.
-            reach: if any_rotation {
-                proxy.max_distance_from(sweep.local_center)
-            } else {
-                0.0
-            },
+            q0: frame.q0,
+            reach: frame.reach,
         }
     }
 
@@ -385,8 +414,12 @@ impl<'a> SeparationFunction<'a> {
     /// The separation of the given witness points at `t`.
     #[inline]
     fn evaluate(&self, ia: usize, ib: usize, t: f32) -> f32 {
-        let xf_a = self.motion_a.pose(t);
-        let xf_b = self.motion_b.pose(t);
+        self.evaluate_at(ia, ib, self.motion_a.pose(t), self.motion_b.pose(t))
+    }
+
+    /// The separation of the given witness points at the given poses.
+    #[inline]
+    fn evaluate_at(&self, ia: usize, ib: usize, xf_a: Pose, xf_b: Pose) -> f32 {
         match self.kind {
             SeparationKind::Points => {
                 let pa = xf_a.transform_point(self.proxy_a.point(ia));
@@ -691,6 +724,27 @@ fn diagnose(input: &ToiInput) -> Result<(), ToiFailure> {
 /// assert!((out.fraction * 100.0 - (5.0 - 0.105 - 0.005)).abs() < 0.002);
 /// ```
 pub fn time_of_impact(input: &ToiInput) -> ToiOutput {
+    let any_rotation = input.sweep_a.a1 != input.sweep_a.a0 || input.sweep_b.a1 != input.sweep_b.a0;
+    // Only the motion bounds use the reach, always multiplied by an angular speed: without
+    // rotation it is not needed.
+    let frame = |sweep: &Sweep, proxy: &ShapeProxy| {
+        if any_rotation {
+            BodyFrame::new(sweep, proxy)
+        } else {
+            BodyFrame::with_reach(sweep, 0.0)
+        }
+    };
+    let frame_a = frame(&input.sweep_a, &input.proxy_a);
+    let frame_b = frame(&input.sweep_b, &input.proxy_b);
+    time_of_impact_framed(input, frame_a, frame_b)
+}
+
+/// [`time_of_impact`] with the frames of both bodies given (see [`BodyFrame`]).
+pub(crate) fn time_of_impact_framed(
+    input: &ToiInput,
+    frame_a: BodyFrame,
+    frame_b: BodyFrame,
+) -> ToiOutput {
     if let Err(failure) = validate(input) {
         return ToiOutput::failed(failure, 0.0);
     }
@@ -700,8 +754,8 @@ pub fn time_of_impact(input: &ToiInput) -> ToiOutput {
     // coordinates are exact in f32 (Sterbenz), so the query keeps its precision.
     let origin = input.sweep_a.c0;
     let any_rotation = input.sweep_a.a1 != input.sweep_a.a0 || input.sweep_b.a1 != input.sweep_b.a0;
-    let motion_a = Motion::new(&input.sweep_a, origin, proxy_a, any_rotation);
-    let motion_b = Motion::new(&input.sweep_b, origin, proxy_b, any_rotation);
+    let motion_a = Motion::new(&input.sweep_a, origin, frame_a);
+    let motion_b = Motion::new(&input.sweep_b, origin, frame_b);
 
     let t_max = input.max_fraction;
     let total_radius = proxy_a.radius + proxy_b.radius;
@@ -790,7 +844,8 @@ pub fn time_of_impact(input: &ToiInput) -> ToiOutput {
                 // Apart at t2 along this axis (beyond the band, or inside it at a root).
                 break;
             }
-            let s1 = f.evaluate(ia, ib, t1);
+            // At t1 the poses are known (GJK's).
+            let s1 = f.evaluate_at(ia, ib, xf_a, xf_b);
             if s1 < target - tolerance {
                 // The witness points are already too close at t1 although GJK says the shapes
                 // are apart: rounding. Advance only as far as can be certified.
