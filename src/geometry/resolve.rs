@@ -240,13 +240,7 @@ fn out_of_reach(
     frame: &TargetFrame,
     slop: f32,
 ) -> bool {
-    // As `time_of_impact` sets it: `target = max(total radius + slop, 2 tolerance)`.
-    let tolerance = separation_tolerance(slop);
-    let hit_range = (proxy.radius + target.proxy.radius + target_separation(slop))
-        .max(2.0 * tolerance)
-        + tolerance;
-    // One more slop covers GJK's rounding.
-    let margin = hit_range + slop;
+    let margin = hit_margin(proxy, target, slop);
     // Over `[0, t_max]` the centre runs from `c0` to `c(t_max)`.
     let end = sweep.center_at(t_max);
     // First a separating-axis bound in the target's frame, a few multiplications: most pairs
@@ -317,6 +311,59 @@ fn segment_box_distance(p0: Vec2, p1: Vec2, core: Aabb) -> f32 {
         .map(|&c| to_segment(c))
         .fold(to_box(p0).min(to_box(p1)), f32::min)
         .sqrt()
+}
+
+/// The core distance within which a pair can be hit, plus one slop for rounding: a body whose
+/// core stays farther than this from the target's core is never hit by it.
+#[inline]
+fn hit_margin(proxy: &ShapeProxy, target: &StaticItem, slop: f32) -> f32 {
+    // As `time_of_impact` sets it: `target = max(total radius + slop, 2 tolerance)`, and a
+    // hit is reported within `target + tolerance`.
+    let tolerance = separation_tolerance(slop);
+    let hit_range = (proxy.radius + target.proxy.radius + target_separation(slop))
+        .max(2.0 * tolerance)
+        + tolerance;
+    hit_range + slop
+}
+
+/// A lower bound of the first fraction of `sweep` at which the body can come within hit
+/// range of `target`, or `None` when it provably never does over `[0, 1]`.
+///
+/// Derivation: as for [`out_of_reach`], the body's core stays within `reach` of its centre,
+/// so a hit needs the centre within `reach + margin` of the target's core, hence inside the
+/// core's box (target frame) grown by that much. The centre moves on a straight line, so the
+/// fractions at which it is inside that box form one interval, found by clipping the line
+/// against the box's two slabs; its start is the bound.
+fn earliest_reach(
+    reach: f32,
+    proxy: &ShapeProxy,
+    sweep: &Sweep,
+    target: &StaticItem,
+    frame: &TargetFrame,
+    slop: f32,
+) -> Option<f32> {
+    let grow = reach + hit_margin(proxy, target, slop);
+    let q = frame.q;
+    let origin = q.inv_rotate(sweep.c0 - target.position);
+    let path = q.inv_rotate(sweep.linear_motion());
+    let lo = frame.core.min - grow;
+    let hi = frame.core.max + grow;
+    let (mut enter, mut leave) = (0.0f32, 1.0f32);
+    for axis in 0..2 {
+        let (o, d) = (origin[axis], path[axis]);
+        if d == 0.0 {
+            if o < lo[axis] || o > hi[axis] {
+                return None;
+            }
+            continue;
+        }
+        let (ta, tb) = ((lo[axis] - o) / d, (hi[axis] - o) / d);
+        // A NaN (an overflowing quotient times zero) must not prove anything: `max`/`min`
+        // return the other operand, so it widens nothing and narrows nothing.
+        enter = enter.max(ta.min(tb));
+        leave = leave.min(ta.max(tb));
+    }
+    (enter <= leave).then_some(enter)
 }
 
 /// A lower bound of the distance between the segment `p0 p1` and the box `core` (same frame):
@@ -698,6 +745,10 @@ pub fn contact_response(
     (v + jt * inv_m * tangent, w + rt * jt * inv_i)
 }
 
+/// Targets of one sweep that [`solve_body`] orders on the stack by when the body can first
+/// reach them (a swept box rarely holds more than a handful).
+const ORDERED_TARGETS: usize = 32;
+
 /// Sweeps one body against the static world and resolves its impacts.
 ///
 /// `candidates` are the targets overlapping the body's swept bound (ascending), as the broad
@@ -747,10 +798,44 @@ pub fn solve_body(
             body.proxy.max_distance_from(sweep.local_center)
         };
         let body_frame = BodyFrame::with_reach(&sweep, sweep_reach);
-        // Earliest hit; ties go to the lowest target index (the list is ascending).
+        // Visit the targets in the order the body can first reach them (branch and bound):
+        // once that is later than the earliest hit so far, no target left can change the
+        // answer. Targets the body never reaches drop out here. Short lists (nearly all) are
+        // ordered on the stack; a longer one is visited as it comes.
+        let mut order = [(0.0f32, 0u32); ORDERED_TARGETS];
+        let mut ordered = 0;
+        let short = list.len() <= ORDERED_TARGETS;
+        if short {
+            for &index in list {
+                let (Some(target), Some(frame)) = (
+                    statics.items.get(index as usize),
+                    statics.frames.get(index as usize),
+                ) else {
+                    continue;
+                };
+                if let Some(enter) = earliest_reach(reach, &body.proxy, &sweep, target, frame, slop)
+                {
+                    // Insertion by (fraction, index): deterministic, ties in index order.
+                    let mut k = ordered;
+                    while k > 0 && order[k - 1].0 > enter {
+                        order[k] = order[k - 1];
+                        k -= 1;
+                    }
+                    order[k] = (enter, index);
+                    ordered += 1;
+                }
+            }
+        }
+        let visits = if short { ordered } else { list.len() };
+        // Earliest hit; ties go to the lowest target index.
         let mut best: Option<(f32, u32, Vec2, Vec2)> = None;
         let mut failed: Option<(f32, ToiFailure)> = None;
-        for &index in list {
+        for visit in 0..visits {
+            let (enter, index) = if short {
+                order[visit]
+            } else {
+                (0.0, list[visit])
+            };
             let (Some(target), Some(frame)) = (
                 statics.items.get(index as usize),
                 statics.frames.get(index as usize),
@@ -765,6 +850,10 @@ pub fn solve_body(
                 (None, Some(f)) => f.0,
                 (None, None) => 1.0,
             };
+            if enter > t_max {
+                // Every target left is first reachable later still.
+                break;
+            }
             match pair_toi(body, reach, &sweep, body_frame, target, frame, slop, t_max) {
                 PairOutcome::Clear { overlapping } => {
                     result.started_overlapping |= overlapping && first;
@@ -776,7 +865,7 @@ pub fn solve_body(
                     overlapping,
                 } => {
                     result.started_overlapping |= overlapping && first;
-                    if best.is_none_or(|b| fraction < b.0) {
+                    if best.is_none_or(|b| fraction < b.0 || (fraction == b.0 && index < b.1)) {
                         best = Some((fraction, index, point, normal));
                     }
                 }
@@ -954,6 +1043,76 @@ mod tests {
         assert!(
             skipped < cases,
             "every pair skipped: the cases never come close"
+        );
+    }
+
+    /// `earliest_reach` never comes after the hit the full query finds, and rules a pair out
+    /// only when the full query calls it separated.
+    #[test]
+    fn earliest_reach_is_a_lower_bound_of_the_hit() {
+        let mut rng = Rng(13);
+        let slop = crate::geometry::LINEAR_SLOP;
+        let (mut hits, mut ruled_out, mut late_entries) = (0, 0, 0);
+        for _ in 0..20_000 {
+            let proxy = shape(&mut rng);
+            let target = StaticItem {
+                proxy: shape(&mut rng),
+                position: Vec2::new(rng.range(-3.0, 3.0), rng.range(-3.0, 3.0)),
+                angle: rng.range(-3.2, 3.2),
+            };
+            let c0 = Vec2::new(rng.range(-8.0, 8.0), rng.range(-8.0, 8.0));
+            // A tenth of the sweeps only turn, or move along one axis of the world.
+            let c1 = match (rng.next() * 10.0) as u32 {
+                0 => c0,
+                1 => Vec2::new(rng.range(-8.0, 8.0), c0.y),
+                _ => Vec2::new(rng.range(-8.0, 8.0), rng.range(-8.0, 8.0)),
+            };
+            let a0 = rng.range(-3.2, 3.2);
+            let sweep = Sweep::new(Vec2::ZERO, c0, a0, c1, a0 + rng.range(-12.6, 12.6));
+            let reach = proxy.max_distance_from(Vec2::ZERO);
+            let enter = earliest_reach(
+                reach,
+                &proxy,
+                &sweep,
+                &target,
+                &TargetFrame::new(&target),
+                slop,
+            );
+            let mut input = ToiInput::new(
+                proxy,
+                sweep,
+                target.proxy,
+                Sweep::stationary(Vec2::ZERO, target.position, target.angle),
+            );
+            input.config.linear_slop = slop;
+            let out = time_of_impact(&input);
+            match enter {
+                None => {
+                    ruled_out += 1;
+                    assert_eq!(
+                        out.state,
+                        ToiState::Separated,
+                        "ruled out {sweep:?} {target:?}"
+                    );
+                }
+                Some(enter) => {
+                    if matches!(out.state, ToiState::Hit | ToiState::Overlapped) {
+                        hits += 1;
+                        assert!(
+                            enter <= out.fraction,
+                            "reachable from {enter}, hit at {} ({sweep:?} {target:?})",
+                            out.fraction
+                        );
+                        late_entries += (enter > 0.0) as u32;
+                    }
+                }
+            }
+        }
+        // The bound must do work both ways: rule pairs out, and start after 0 for some hits.
+        assert!(ruled_out > 2_000, "only {ruled_out} ruled out");
+        assert!(
+            hits > 1_000 && late_entries > 500,
+            "{hits} hits, {late_entries} after 0"
         );
     }
 

@@ -270,8 +270,12 @@ pub(crate) fn record_end(
         }
         if let Some(v) = velocity {
             let expected = v.angular * dt;
-            if expected.is_finite() {
-                delta += ((expected - delta) / TAU).round() * TAU;
+            // Whole turns to add: round((expected - delta) / TAU). Below half a turn of
+            // difference that is 0, and `round` is a library call on baseline x86-64, so it
+            // is skipped there (same result). A non-finite velocity adds nothing.
+            let turns = (expected - delta) / TAU;
+            if turns.is_finite() && turns.abs() >= 0.5 {
+                delta += turns.round() * TAU;
             }
         }
         sweep.end_angle = sweep.start_angle + delta;
