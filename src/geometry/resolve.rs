@@ -231,22 +231,25 @@ fn approaching(sweep: &Sweep, point: Vec2, normal: Vec2, threshold: f32) -> bool
 /// its answer is *separated*, which is returned here without the advancement. One more slop of
 /// margin covers GJK's rounding; the test is done relative to `c0` so that far from the origin
 /// no precision is lost.
+#[allow(clippy::too_many_arguments)] // the body, its sweep and interval, the target and frame
 fn out_of_reach(
     reach: f32,
     proxy: &ShapeProxy,
     sweep: &Sweep,
+    t_min: f32,
     t_max: f32,
     target: &StaticItem,
     frame: &TargetFrame,
     slop: f32,
 ) -> bool {
     let margin = hit_margin(proxy, target, slop);
-    // Over `[0, t_max]` the centre runs from `c0` to `c(t_max)`.
+    // Over `[t_min, t_max]` the centre runs from `c(t_min)` to `c(t_max)`.
+    let start = sweep.center_at(t_min);
     let end = sweep.center_at(t_max);
     // First a separating-axis bound in the target's frame, a few multiplications: most pairs
     // it settles are the ones a long diagonal sweep's box lets through.
     let q = frame.q;
-    let p0 = q.inv_rotate(sweep.c0 - target.position);
+    let p0 = q.inv_rotate(start - target.position);
     let p1 = q.inv_rotate(end - target.position);
     let gap = segment_box_gap(p0, p1, frame.core);
     if gap > reach + margin {
@@ -256,10 +259,12 @@ fn out_of_reach(
         // The three axes are all a segment and a box have: no gap on any, they intersect.
         return gap > 0.0 && segment_box_distance(p0, p1, frame.core) - reach > margin;
     }
-    // Then the exact distance, by GJK.
+    // Then the exact distance, by GJK, relative to `c0` so that far from the origin no
+    // precision is lost.
+    let from = start - sweep.c0;
     let path = end - sweep.c0;
-    let points = [Vec2::ZERO, path];
-    let count = if path == Vec2::ZERO { 1 } else { 2 };
+    let points = [from, path];
+    let count = if path == from { 1 } else { 2 };
     let segment = ShapeProxy::from_parts(&points[..count], 0.0);
     let d = shape_distance(
         &DistanceInput {
@@ -412,9 +417,9 @@ fn pair_toi(
     target: &StaticItem,
     frame: &TargetFrame,
     slop: f32,
-    t_max: f32,
+    (t_min, t_max): (f32, f32),
 ) -> PairOutcome {
-    if out_of_reach(reach, &body.proxy, sweep, t_max, target, frame, slop) {
+    if out_of_reach(reach, &body.proxy, sweep, t_min, t_max, target, frame, slop) {
         return PairOutcome::Clear { overlapping: false };
     }
     let target_sweep = Sweep::stationary(Vec2::ZERO, target.position, target.angle);
@@ -424,7 +429,7 @@ fn pair_toi(
         linear_slop: slop,
         target_separation: None,
     };
-    let out = time_of_impact_framed(&input, body_frame, frame.toi);
+    let out = time_of_impact_framed(&input, body_frame, frame.toi, t_min);
     match out.state {
         ToiState::Separated => PairOutcome::Clear { overlapping: false },
         ToiState::Hit if out.fraction > 0.0 => PairOutcome::Hit {
@@ -482,7 +487,7 @@ fn pair_toi(
             let fine = (0.25 * core_distance).clamp(0.02 * tolerance, tolerance);
             input.config.linear_slop = 4.0 * fine;
             input.config.target_separation = Some((start - 2.0 * fine).max(-0.5 * slop));
-            let out2 = time_of_impact_framed(&input, body_frame, frame.toi);
+            let out2 = time_of_impact_framed(&input, body_frame, frame.toi, t_min);
             match out2.state {
                 ToiState::Separated => PairOutcome::Clear { overlapping },
                 ToiState::Hit | ToiState::Overlapped => PairOutcome::Hit {
@@ -854,7 +859,11 @@ pub fn solve_body(
                 // Every target left is first reachable later still.
                 break;
             }
-            match pair_toi(body, reach, &sweep, body_frame, target, frame, slop, t_max) {
+            // Before `enter` the body is provably out of range: both tests start there.
+            let interval = (enter, t_max);
+            match pair_toi(
+                body, reach, &sweep, body_frame, target, frame, slop, interval,
+            ) {
                 PairOutcome::Clear { overlapping } => {
                     result.started_overlapping |= overlapping && first;
                 }
@@ -981,8 +990,9 @@ mod tests {
         shape.proxy()
     }
 
-    /// The pre-check only ever answers for pairs whose full time of impact is *separated*, and
-    /// it does answer for a good share of near misses (else it would be dead weight).
+    /// The pre-check only ever answers for pairs whose full time of impact (over the same
+    /// interval, from the same start) is *separated*, and it does answer for a good share of
+    /// near misses (else it would be dead weight).
     #[test]
     fn out_of_reach_only_skips_pairs_the_full_query_calls_separated() {
         let mut rng = Rng(7);
@@ -1002,17 +1012,24 @@ mod tests {
             let a1 = a0 + rng.range(-12.6, 12.6);
             let sweep = Sweep::new(Vec2::ZERO, c0, a0, c1, a1);
             let reach = proxy.max_distance_from(Vec2::ZERO);
-            // Half the cases search the whole sweep, half a prefix of it.
+            // Half the cases search the whole sweep, half a prefix of it; a third of them
+            // from a later start on.
             let t_max = if rng.next() < 0.5 {
                 1.0
             } else {
                 rng.range(0.0, 1.0)
+            };
+            let t_min = if rng.next() < 0.33 {
+                rng.range(0.0, t_max)
+            } else {
+                0.0
             };
             cases += 1;
             if !out_of_reach(
                 reach,
                 &proxy,
                 &sweep,
+                t_min,
                 t_max,
                 &target,
                 &TargetFrame::new(&target),
@@ -1029,7 +1046,13 @@ mod tests {
             );
             input.config.linear_slop = slop;
             input.max_fraction = t_max;
-            let out = time_of_impact(&input);
+            let frame = |sweep: &Sweep, proxy: &ShapeProxy| BodyFrame::new(sweep, proxy);
+            let out = time_of_impact_framed(
+                &input,
+                frame(&input.sweep_a, &input.proxy_a),
+                frame(&input.sweep_b, &input.proxy_b),
+                t_min,
+            );
             assert_eq!(
                 out.state,
                 ToiState::Separated,

@@ -736,14 +736,20 @@ pub fn time_of_impact(input: &ToiInput) -> ToiOutput {
     };
     let frame_a = frame(&input.sweep_a, &input.proxy_a);
     let frame_b = frame(&input.sweep_b, &input.proxy_b);
-    time_of_impact_framed(input, frame_a, frame_b)
+    time_of_impact_framed(input, frame_a, frame_b, 0.0)
 }
 
-/// [`time_of_impact`] with the frames of both bodies given (see [`BodyFrame`]).
+/// [`time_of_impact`] with the frames of both bodies given (see [`BodyFrame`]), searching
+/// from `start` on.
+///
+/// `start` must be a fraction before which the caller has proven the shapes stay out of hit
+/// range (the plugin's `earliest_reach`): the search then begins there, on a shorter
+/// interval with less turning to certify. An overlap can then only be reported at 0.
 pub(crate) fn time_of_impact_framed(
     input: &ToiInput,
     frame_a: BodyFrame,
     frame_b: BodyFrame,
+    start: f32,
 ) -> ToiOutput {
     if let Err(failure) = validate(input) {
         return ToiOutput::failed(failure, 0.0);
@@ -775,7 +781,12 @@ pub(crate) fn time_of_impact_framed(
 
     let mut out = ToiOutput::failed(ToiFailure::IterationLimit, 0.0);
     let mut cache = SimplexCache::default();
-    let mut t1 = 0.0f32;
+    // A start outside `[0, max_fraction]` (or NaN) is ignored: the search starts at 0.
+    let mut t1 = if start > 0.0 && start <= input.max_fraction {
+        start
+    } else {
+        0.0
+    };
     // The end of the current search window: the whole interval at first, a sub-interval after
     // a certification that could prove only a prefix.
     let mut t_end = t_max;

@@ -229,7 +229,7 @@ pub(crate) fn record_start(
     mut bodies: Query<(&Transform, &mut Sweep, &CcdEnabled), Without<StaticCollider>>,
 ) {
     let record = |(transform, mut sweep, enabled): (&Transform, Mut<Sweep>, &CcdEnabled)| {
-        let sweep = sweep.as_mut();
+        let sweep = sweep.bypass_change_detection();
         sweep.recorded = enabled.0;
         if let Some((p, a)) = pose_of(transform) {
             sweep.start_position = p;
@@ -258,23 +258,33 @@ pub(crate) fn record_end(
         if !sweep.recorded {
             return;
         }
-        let sweep = sweep.as_mut();
+        let sweep = sweep.bypass_change_detection();
         let Some((p, a)) = pose_of(transform) else {
             sweep.end_position = Vec2::NAN;
             return;
         };
         sweep.end_position = p;
-        let mut delta = (a - sweep.start_angle).rem_euclid(TAU);
-        if delta > PI {
-            delta -= TAU;
+        // The change of angle wrapped into (-pi, pi]. Both angles come from `atan2`, in
+        // [-pi, pi], so one turn added or taken away is enough; `rem_euclid` (a library
+        // call, `fmodf`) is left for angles set some other way.
+        let mut delta = a - sweep.start_angle;
+        if delta.abs() > TAU {
+            delta = delta.rem_euclid(TAU);
         }
+        // Arithmetic rather than branches: the angles are random, a branch would be
+        // mispredicted for a good share of the bodies.
+        delta -= TAU * ((delta > PI) as i32 - (delta <= -PI) as i32) as f32;
         if let Some(v) = velocity {
             let expected = v.angular * dt;
-            // Whole turns to add: round((expected - delta) / TAU). Below half a turn of
-            // difference that is 0, and `round` is a library call on baseline x86-64, so it
-            // is skipped there (same result). A non-finite velocity adds nothing.
+            // Whole turns to add: the nearest integer to (expected - delta) / TAU, rounded
+            // by adding and subtracting 1.5 * 2^23 (which leaves no fraction bits) below
+            // 2^22, where that is exact: `round` is a library call on baseline x86-64.
+            // A non-finite velocity adds nothing.
+            const ROUND: f32 = 12_582_912.0;
             let turns = (expected - delta) / TAU;
-            if turns.is_finite() && turns.abs() >= 0.5 {
+            if turns.abs() < 4_194_304.0 {
+                delta += ((turns + ROUND) - ROUND) * TAU;
+            } else if turns.is_finite() {
                 delta += turns.round() * TAU;
             }
         }
@@ -651,7 +661,7 @@ pub(crate) fn write_back(
             transform.translation.y = position.y;
             transform.rotation = Quat::from_rotation_z(angle);
         }
-        let sweep = sweep.as_mut();
+        let sweep = sweep.bypass_change_detection();
         sweep.resolved_position = position;
         sweep.resolved_angle = angle;
         sweep.local_center = body.sweep.local_center;
