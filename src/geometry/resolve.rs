@@ -92,7 +92,8 @@ impl StaticSet {
     pub fn candidates(&self, proxy: &ShapeProxy, sweep: &Sweep, margin: f32, out: &mut Vec<u32>) {
         let bounds = proxy.swept_aabb(sweep).expanded(margin);
         self.bvh.query(&bounds, out);
-    }}
+    }
+}
 
 /// What the pair tests need of a target besides its [`StaticItem`], computed once when the
 /// set is rebuilt instead of once per pair: its rotation (a sine and a cosine), its reach and
