@@ -117,11 +117,12 @@ pub fn cross(a: Vec2, b: Vec2) -> f32 {
 /// last bits also differ between platforms and versions, these are the same everywhere (IEEE
 /// `f32` operations only, no fused multiply-add).
 ///
-/// Cephes' `atanf` (S. L. Moshier, *Methods and Programs for Mathematical Functions*, 1989): `t = |y / x|` is reduced to `[0, tan(π/8)]` through
-/// `atan t = π/2 - atan(1/t)` above `tan(3π/8)` and `atan t = π/4 + atan((t - 1)/(t + 1))`
-/// above `tan(π/8)`; there a minimax polynomial is within about 2e-7 relative. The quadrant
-/// comes from the signs of `x` and `y` (the sign of a zero `y` included, as in IEEE `atan2`).
-/// `(0, 0)` gives 0; NaN gives NaN.
+/// Cephes' `atanf` (S. L. Moshier, *Methods and Programs for Mathematical Functions*, 1989):
+/// `t = |y / x|` is reduced to `[0, tan(π/8)]` through `atan t = π/2 - atan(1/t)` above
+/// `tan(3π/8)` and `atan t = π/4 + atan((t - 1)/(t + 1))` above `tan(π/8)`, each reduced
+/// argument formed from `|x|` and `|y|` with one division; there a minimax polynomial is within
+/// about 2e-7 relative. The quadrant comes from the signs of `x` and `y` (the sign of a zero
+/// `y` included, as in IEEE `atan2`). `(0, 0)` gives 0; NaN gives NaN.
 #[inline]
 pub fn atan2(y: f32, x: f32) -> f32 {
     use core::f32::consts::{FRAC_PI_2, FRAC_PI_4, PI};
@@ -130,18 +131,17 @@ pub fn atan2(y: f32, x: f32) -> f32 {
     if x == 0.0 && y == 0.0 {
         return 0.0;
     }
-    let t = (y / x).abs();
-    // One division whatever the range, the range picked by selects: angles read off bodies
-    // are random, so branches on them would be mispredicted half the time. `t / 1` is `t`
-    // exactly, so the result is the same as with three separate formulas.
-    let high = t > TAN_3PI_8;
-    let mid = t > TAN_PI_8;
-    let (base, num, den) = if high {
-        (FRAC_PI_2, -1.0, t)
-    } else if mid {
-        (FRAC_PI_4, t - 1.0, t + 1.0)
+    // One division whatever the range, on |x| and |y| directly: with t = |y / x|,
+    // -1 / t = -|x| / |y| and (t - 1) / (t + 1) = (|y| - |x|) / (|y| + |x|). The range is
+    // picked by comparisons without dividing, and by selects: angles read off bodies are
+    // random, so branches on them would be mispredicted half the time.
+    let (ax, ay) = (x.abs(), y.abs());
+    let (base, num, den) = if ay > TAN_3PI_8 * ax {
+        (FRAC_PI_2, -ax, ay)
+    } else if ay > TAN_PI_8 * ax {
+        (FRAC_PI_4, ay - ax, ay + ax)
     } else {
-        (0.0, t, 1.0)
+        (0.0, ay, ax)
     };
     let u = num / den;
     let z = u * u;
