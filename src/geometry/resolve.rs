@@ -992,6 +992,42 @@ mod tests {
         shape.proxy()
     }
 
+    /// A random target near the origin, at any angle.
+    fn target(rng: &mut Rng) -> StaticItem {
+        StaticItem {
+            proxy: shape(rng),
+            position: Vec2::new(rng.range(-3.0, 3.0), rng.range(-3.0, 3.0)),
+            angle: rng.range(-3.2, 3.2),
+        }
+    }
+
+    /// The query of the body against the target over the whole step, as `pair_toi` builds it.
+    fn pair_input(proxy: ShapeProxy, sweep: Sweep, target: &StaticItem, slop: f32) -> ToiInput {
+        let mut input = ToiInput::new(
+            proxy,
+            sweep,
+            target.proxy,
+            Sweep::stationary(Vec2::ZERO, target.position, target.angle),
+        );
+        input.config.linear_slop = slop;
+        input
+    }
+
+    /// The surface separation (radii included) of the body at fraction `t` from the target.
+    fn separation(proxy: &ShapeProxy, sweep: &Sweep, target: &StaticItem, t: f32) -> f32 {
+        shape_distance(
+            &DistanceInput {
+                proxy_a: proxy,
+                proxy_b: &target.proxy,
+                pose_a: sweep.pose_at(t),
+                pose_b: Pose::new(target.position, target.angle),
+                use_radii: true,
+            },
+            &mut SimplexCache::default(),
+        )
+        .distance
+    }
+
     /// The pre-check only ever answers for pairs whose full time of impact (over the same
     /// interval, from the same start) is *separated*, and it does answer for a good share of
     /// near misses (else it would be dead weight).
@@ -1002,11 +1038,7 @@ mod tests {
         let (mut skipped, mut cases) = (0, 0);
         for _ in 0..20_000 {
             let proxy = shape(&mut rng);
-            let target = StaticItem {
-                proxy: shape(&mut rng),
-                position: Vec2::new(rng.range(-3.0, 3.0), rng.range(-3.0, 3.0)),
-                angle: rng.range(-3.2, 3.2),
-            };
+            let target = target(&mut rng);
             // Long fast sweeps that pass near the target, spinning up to two turns.
             let c0 = Vec2::new(rng.range(-8.0, 8.0), rng.range(-8.0, 8.0));
             let c1 = Vec2::new(rng.range(-8.0, 8.0), rng.range(-8.0, 8.0));
@@ -1040,13 +1072,7 @@ mod tests {
                 continue;
             }
             skipped += 1;
-            let mut input = ToiInput::new(
-                proxy,
-                sweep,
-                target.proxy,
-                Sweep::stationary(Vec2::ZERO, target.position, target.angle),
-            );
-            input.config.linear_slop = slop;
+            let mut input = pair_input(proxy, sweep, &target, slop);
             input.max_fraction = t_max;
             let frame = |sweep: &Sweep, proxy: &ShapeProxy| BodyFrame::new(sweep, proxy);
             let out = time_of_impact_framed(
@@ -1082,11 +1108,7 @@ mod tests {
         let (mut hits, mut ruled_out, mut narrowed, mut grazes) = (0, 0, 0, 0);
         for _ in 0..20_000 {
             let proxy = shape(&mut rng);
-            let target = StaticItem {
-                proxy: shape(&mut rng),
-                position: Vec2::new(rng.range(-3.0, 3.0), rng.range(-3.0, 3.0)),
-                angle: rng.range(-3.2, 3.2),
-            };
+            let target = target(&mut rng);
             let c0 = Vec2::new(rng.range(-8.0, 8.0), rng.range(-8.0, 8.0));
             // A tenth of the sweeps only turn, or move along one axis of the world.
             let c1 = match (rng.next() * 10.0) as u32 {
@@ -1099,13 +1121,7 @@ mod tests {
             let reach = proxy.max_distance_from(Vec2::ZERO);
             let frame = TargetFrame::new(&target);
             let window = reach_interval(reach, &proxy, &sweep, &target, &frame, slop);
-            let mut input = ToiInput::new(
-                proxy,
-                sweep,
-                target.proxy,
-                Sweep::stationary(Vec2::ZERO, target.position, target.angle),
-            );
-            input.config.linear_slop = slop;
+            let mut input = pair_input(proxy, sweep, &target, slop);
             let out = time_of_impact(&input);
             let Some((enter, leave)) = window else {
                 ruled_out += 1;
@@ -1139,39 +1155,17 @@ mod tests {
                 );
                 // (At 0 a hit is any start closer than the band.)
                 if inside.state == ToiState::Hit && inside.fraction > 0.0 {
-                    let d = shape_distance(
-                        &DistanceInput {
-                            proxy_a: &proxy,
-                            proxy_b: &target.proxy,
-                            pose_a: sweep.pose_at(inside.fraction),
-                            pose_b: Pose::new(target.position, target.angle),
-                            use_radii: true,
-                        },
-                        &mut SimplexCache::default(),
-                    );
+                    let d = separation(&proxy, &sweep, &target, inside.fraction);
                     let tolerance = separation_tolerance(slop);
                     // 0.1 mm for the rounding of poses and distances at 10 m.
                     assert!(
-                        (d.distance - slop).abs() <= tolerance + 1e-4,
-                        "hit inside at {} with separation {} ({sweep:?} {target:?})",
+                        (d - slop).abs() <= tolerance + 1e-4,
+                        "hit inside at {} with separation {d} ({sweep:?} {target:?})",
                         inside.fraction,
-                        d.distance
                     );
                 }
             } else if inside.state != out.state {
-                let sep = |t: f32| {
-                    shape_distance(
-                        &DistanceInput {
-                            proxy_a: &proxy,
-                            proxy_b: &target.proxy,
-                            pose_a: sweep.pose_at(t),
-                            pose_b: Pose::new(target.position, target.angle),
-                            use_radii: true,
-                        },
-                        &mut SimplexCache::default(),
-                    )
-                    .distance
-                };
+                let sep = |t: f32| separation(&proxy, &sweep, &target, t);
                 let (mut lo, mut at) = (f32::MAX, 0.0);
                 for i in 0..=200_000 {
                     let t = i as f32 / 200_000.0;
