@@ -672,9 +672,9 @@ pub(crate) fn write_back(
             v.linear = body.velocity;
             v.angular = body.angular;
         }
-        let lane = &ws.lanes[index / lane_len];
         let first_hit = (body.impact_count > 0).then(|| {
-            let i = lane.impacts[body.impacts as usize];
+            // Only for bodies that hit: the division finding the lane is not free.
+            let i = ws.lanes[index / lane_len].impacts[body.impacts as usize];
             Impact {
                 other: other(i.target),
                 fraction: i.fraction,
