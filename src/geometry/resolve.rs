@@ -786,7 +786,7 @@ pub fn solve_body(
 ) -> BodyOutcome {
     let slop = settings.linear_slop;
     let dt = settings.dt;
-    // The farthest core point from the centre of mass, for `out_of_reach`.
+    // The farthest core point from the centre of mass: the reach of every sweep about it.
     let reach = body.proxy.max_distance_from(body.local_center);
     let mut sweep = body.sweep;
     let implied = (sweep.linear_motion() / dt, sweep.angular_motion() / dt);
@@ -811,8 +811,9 @@ pub fn solve_body(
             statics.candidates(&body.proxy, &sweep, slop, scratch);
             scratch
         };
-        // The sweep's start rotation and reach, shared by all its pairs. Sub-step sweeps turn
-        // about `body.local_center`; the first is the caller's.
+        // The sweep's start rotation and its reach about the sweep's own centre of mass (what
+        // every bound below assumes), shared by all its pairs. Sub-step sweeps turn about
+        // `body.local_center`; the first is the caller's.
         let sweep_reach = if sweep.local_center == body.local_center {
             reach
         } else {
@@ -835,7 +836,7 @@ pub fn solve_body(
                     continue;
                 };
                 if let Some(window) =
-                    reach_interval(reach, &body.proxy, &sweep, target, frame, slop)
+                    reach_interval(sweep_reach, &body.proxy, &sweep, target, frame, slop)
                 {
                     // Insertion by (fraction, index): deterministic, ties in index order.
                     let mut k = ordered;
@@ -880,7 +881,14 @@ pub fn solve_body(
             // only inside.
             let interval = (enter, t_max.min(leave));
             match pair_toi(
-                body, reach, &sweep, body_frame, target, frame, slop, interval,
+                body,
+                sweep_reach,
+                &sweep,
+                body_frame,
+                target,
+                frame,
+                slop,
+                interval,
             ) {
                 PairOutcome::Clear { overlapping } => {
                     result.started_overlapping |= overlapping && first;
