@@ -24,7 +24,7 @@ use glam::Vec2;
 use super::bvh::Bvh;
 use super::constants::{separation_tolerance, target_separation};
 use super::gjk::{DistanceInput, SimplexCache, shape_distance};
-use super::math::{Pose, Rot, cross, left_perp, right_perp};
+use super::math::{Pose, cross, left_perp, right_perp};
 use super::proxy::ShapeProxy;
 use super::shape::Aabb;
 use super::sweep::Sweep;
@@ -115,8 +115,8 @@ impl StaticSet {
 /// the bounds of its core in its own frame.
 #[derive(Clone, Copy, Debug)]
 struct TargetFrame {
+    /// Its rotation and reach, as the time of impact takes them.
     toi: BodyFrame,
-    q: Rot,
     /// Bounds of the core points (radius not included) in the target's frame.
     core: Aabb,
     /// The core is exactly that box: its points are the box's corners (a rectangle in its
@@ -138,7 +138,6 @@ impl TargetFrame {
             && points.iter().all(|p| corners.contains(p));
         Self {
             toi,
-            q: toi.rotation(),
             core: Aabb { min, max },
             core_is_box,
         }
@@ -263,7 +262,7 @@ fn out_of_reach(
     let end = sweep.center_at(t_max);
     // First a separating-axis bound in the target's frame, a few multiplications: most pairs
     // it settles are the ones a long diagonal sweep's box lets through.
-    let q = frame.q;
+    let q = frame.toi.rotation();
     let p0 = q.inv_rotate(start - target.position);
     let p1 = q.inv_rotate(end - target.position);
     let gap = segment_box_gap(p0, p1, frame.core);
@@ -363,7 +362,7 @@ fn reach_interval(
     slop: f32,
 ) -> Option<(f32, f32)> {
     let grow = reach + hit_margin(proxy, target, slop);
-    let q = frame.q;
+    let q = frame.toi.rotation();
     let origin = q.inv_rotate(sweep.c0 - target.position);
     let path = q.inv_rotate(sweep.linear_motion());
     let lo = frame.core.min - grow;
