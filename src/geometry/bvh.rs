@@ -62,9 +62,9 @@ const STACK_SIZE: usize = SAH_MAX_DEPTH as usize + 32;
 
 const _: () = assert!(LEAF_MAX_ITEMS >= 4 && STACK_SIZE >= SAH_MAX_DEPTH as usize + 30);
 
-/// Slots in the traversal stack of trees shallower than this (every tree of real levels):
-/// zeroing 80 slots on every query was 6 % of its instructions.
-const SHORT_STACK: usize = 32;
+/// Binary depth below which the walk uses a short stack (every tree of real levels): zeroing
+/// a stack sized for [`STACK_SIZE`] on every query was 6 % of its instructions.
+const SHORT_STACK_DEPTH: usize = 32;
 
 /// From this many items on, the build first sorts them along a Morton curve (see
 /// [`morton_sort`]). Below, the sort costs more than it saves (about 15 % slower at 1,000).
@@ -138,6 +138,46 @@ struct Node {
     count: u32,
 }
 
+/// A node of the wide tree the queries walk: the binary tree with every other level folded in,
+/// so up to four children, their packed boxes transposed (one lane per child) so that one
+/// four-lane comparison tests them all. A walk of the binary tree spends its time on two box
+/// tests and an unpredictable branch per level; the wide one has half the levels. 96 bytes.
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(16))]
+struct Wide {
+    /// The children's packed boxes `(min.x, min.y, -max.x, -max.y)`, transposed; absent
+    /// children are [`EMPTY`] (which overlaps no query).
+    min_x: Vec4,
+    min_y: Vec4,
+    neg_max_x: Vec4,
+    neg_max_y: Vec4,
+    /// Per child: the index of its wide node (`count` 0) or its first item slot (a leaf).
+    first: [u32; 4],
+    /// Per child: its number of items if it is a leaf, 0 if it is a wide node.
+    count: [u32; 4],
+}
+
+impl Wide {
+    const EMPTY: Self = Self {
+        min_x: EMPTY,
+        min_y: EMPTY,
+        neg_max_x: EMPTY,
+        neg_max_y: EMPTY,
+        first: [0; 4],
+        count: [0; 4],
+    };
+
+    /// Puts a child with packed box `b` in `lane`.
+    fn set(&mut self, lane: usize, b: Vec4, first: u32, count: u32) {
+        self.min_x[lane] = b.x;
+        self.min_y[lane] = b.y;
+        self.neg_max_x[lane] = b.z;
+        self.neg_max_y[lane] = b.w;
+        self.first[lane] = first;
+        self.count[lane] = count;
+    }
+}
+
 /// An item while the tree is built; the build partitions these in place, so at the end their
 /// order is the leaf order. 32 bytes, so the partition moves whole cache-line halves.
 #[derive(Clone, Copy, Debug)]
@@ -201,6 +241,8 @@ struct BuildScratch {
     sorted: Vec<BuildItem>,
     keys: Vec<u64>,
     tasks: Vec<BuildTask>,
+    /// Work list of [`Bvh::fold_wide`].
+    fold: Vec<(u32, u32)>,
 }
 
 impl Clone for BuildScratch {
@@ -239,6 +281,8 @@ pub struct Bvh {
     input_len: usize,
     /// Depth of the deepest leaf (the root has depth 0).
     depth: u32,
+    /// The same tree folded four-wide, for the queries; `wide[0]` is the root's.
+    wide: Vec<Wide>,
     scratch: BuildScratch,
 }
 
@@ -282,8 +326,10 @@ impl Bvh {
             item_inputs,
             input_len,
             depth,
+            wide,
             scratch,
         } = self;
+        wide.clear();
         nodes.clear();
         item_bounds.clear();
         item_ids.clear();
@@ -389,6 +435,59 @@ impl Bvh {
         item_bounds.extend(build.iter().map(|item| item.bounds));
         item_ids.extend(build.iter().map(|item| item.id));
         item_inputs.extend(build.iter().map(|item| item.input));
+        self.fold_wide();
+    }
+
+    /// Rebuilds [`Bvh::wide`] from the binary nodes: each wide node holds the (up to four)
+    /// grandchildren of a binary node, a child that is a leaf standing for itself. `O(n)`,
+    /// allocation-free once the buffers have grown.
+    fn fold_wide(&mut self) {
+        let Self {
+            nodes,
+            wide,
+            scratch,
+            ..
+        } = self;
+        wide.clear();
+        let Some(root) = nodes.first() else {
+            return;
+        };
+        wide.push(Wide::EMPTY);
+        if root.count > 0 {
+            wide[0].set(0, root.bounds, root.first, root.count);
+            return;
+        }
+        // (binary inner node, its wide node)
+        let pending = &mut scratch.fold;
+        pending.clear();
+        pending.push((0, 0));
+        while let Some((n, w)) = pending.pop() {
+            let first = nodes[n as usize].first as usize;
+            let mut lanes = [0u32; 4];
+            let mut k = 0;
+            for c in [first, first + 1] {
+                let child = nodes[c];
+                if child.count == 0 {
+                    lanes[k] = child.first;
+                    lanes[k + 1] = child.first + 1;
+                    k += 2;
+                } else {
+                    lanes[k] = c as u32;
+                    k += 1;
+                }
+            }
+            for (lane, &m) in lanes[..k].iter().enumerate() {
+                let node = nodes[m as usize];
+                if node.count > 0 {
+                    wide[w as usize].set(lane, node.bounds, node.first, node.count);
+                } else {
+                    let index = wide.len() as u32;
+                    wide.push(Wide::EMPTY);
+                    wide[w as usize].set(lane, node.bounds, index, 0);
+                    pending.push((m, index));
+                }
+            }
+        }
     }
 
     /// Moves the leaves without changing the set, then refits every node bottom-up.
@@ -420,6 +519,7 @@ impl Bvh {
             };
             self.nodes[i].bounds = bounds;
         }
+        self.fold_wide();
     }
 
     /// Appends to `out` the ids of all items whose box overlaps (or touches) `bounds`, in
@@ -442,66 +542,61 @@ impl Bvh {
     /// input but changes with it: use it when the order does not matter (for example to count
     /// or to test for any hit) and the sort is worth saving.
     pub fn for_each_overlap(&self, bounds: &Aabb, f: impl FnMut(u32)) {
-        // A stack as deep as the tree, zeroed on every query: a short one for every real tree
-        // (15 levels for 100,000 items), the full bound only for pathological ones.
-        if (self.depth as usize) < SHORT_STACK {
-            self.walk::<SHORT_STACK>(bounds, f);
+        // A stack as deep as the walk can need, zeroed on every query: a short one for every
+        // real tree (15 binary levels for 100,000 items), the full bound only for
+        // pathological ones. Each wide level leaves at most three siblings pending.
+        if (self.depth as usize) < SHORT_STACK_DEPTH {
+            self.walk::<{ 3 * (SHORT_STACK_DEPTH / 2 + 1) + 1 }>(bounds, f);
         } else {
-            self.walk::<STACK_SIZE>(bounds, f);
+            self.walk::<{ 3 * (STACK_SIZE / 2 + 1) + 1 }>(bounds, f);
         }
     }
 
-    /// [`Bvh::for_each_overlap`] with a traversal stack of `N` slots, `N` above the depth.
+    /// [`Bvh::for_each_overlap`] with a traversal stack of `N` slots.
     #[inline(always)]
     fn walk<const N: usize>(&self, bounds: &Aabb, mut f: impl FnMut(u32)) {
-        let Some(root) = self.nodes.first() else {
-            return;
-        };
-        let q = pack_query(bounds);
-        if !overlaps(root.bounds, q) {
+        if self.wide.is_empty() {
             return;
         }
-        // A depth-first walk keeps at most one pending sibling per level, so `N` above the
-        // depth always suffices; indexing would panic rather than corrupt memory if it did not.
+        let q = pack_query(bounds);
+        let (qx, qy, qz, qw) = (
+            Vec4::splat(q.x),
+            Vec4::splat(q.y),
+            Vec4::splat(q.z),
+            Vec4::splat(q.w),
+        );
+        // Indexing would panic rather than corrupt memory if the stack bound were wrong.
         let mut stack = [0u32; N];
         let mut sp = 0;
-        let mut node = root;
+        let mut node = 0usize;
         loop {
-            let first = node.first as usize;
-            if node.count > 0 {
-                let end = first + node.count as usize;
+            let w = &self.wide[node];
+            let hit = w.min_x.cmple(qx)
+                & w.min_y.cmple(qy)
+                & w.neg_max_x.cmple(qz)
+                & w.neg_max_y.cmple(qw);
+            let mut mask = hit.bitmask();
+            while mask != 0 {
+                let lane = mask.trailing_zeros() as usize;
+                mask &= mask - 1;
+                let (first, count) = (w.first[lane] as usize, w.count[lane] as usize);
+                if count == 0 {
+                    stack[sp] = first as u32;
+                    sp += 1;
+                    continue;
+                }
                 // The ids are read only for hits (few): one bounds check for the scan.
-                for (k, &b) in self.item_bounds[first..end].iter().enumerate() {
+                for (k, &b) in self.item_bounds[first..first + count].iter().enumerate() {
                     if overlaps(b, q) {
                         f(self.item_ids[first + k]);
                     }
-                }
-            } else {
-                // Test both children here so only hit nodes are ever loaded again; descend
-                // into the left one directly and keep the right one for later.
-                let [left, right] = &self.nodes[first..first + 2] else {
-                    unreachable!("a slice of two has two elements")
-                };
-                let hit_left = overlaps(left.bounds, q);
-                let hit_right = overlaps(right.bounds, q);
-                if hit_left {
-                    if hit_right {
-                        stack[sp] = first as u32 + 1;
-                        sp += 1;
-                    }
-                    node = left;
-                    continue;
-                }
-                if hit_right {
-                    node = right;
-                    continue;
                 }
             }
             if sp == 0 {
                 return;
             }
             sp -= 1;
-            node = &self.nodes[stack[sp] as usize];
+            node = stack[sp] as usize;
         }
     }
 
@@ -530,7 +625,8 @@ impl Bvh {
     }
 
     /// Number of nodes, inner and leaf (0 for an empty tree). Useful for memory accounting:
-    /// each node takes 32 bytes, each item 24.
+    /// each node takes 32 bytes, each item 24, and the four-wide copy the queries walk about
+    /// 96 bytes per four nodes.
     pub fn node_count(&self) -> usize {
         self.nodes.len()
     }
@@ -780,6 +876,34 @@ mod tests {
     fn check_invariants(bvh: &Bvh) {
         assert!(bvh.depth() < STACK_SIZE);
         assert_eq!(bvh.item_bounds.len(), bvh.item_ids.len());
+        // The wide tree: every item slot in exactly one leaf lane, children after parents,
+        // and at most half the binary depth (plus the root's level).
+        let mut slots = vec![0u32; bvh.item_bounds.len()];
+        let mut wide_depth = vec![0usize; bvh.wide.len()];
+        for (i, w) in bvh.wide.iter().enumerate() {
+            for lane in 0..4 {
+                let (first, count) = (w.first[lane] as usize, w.count[lane] as usize);
+                if w.min_x[lane] == f32::INFINITY && count == 0 && first == 0 {
+                    continue;
+                }
+                if count == 0 {
+                    assert!(first > i, "wide children must follow their parent");
+                    wide_depth[first] = wide_depth[i] + 1;
+                } else {
+                    slots[first..first + count].iter_mut().for_each(|s| *s += 1);
+                }
+            }
+        }
+        assert!(
+            slots.iter().all(|&s| s == 1),
+            "item slots covered {slots:?}"
+        );
+        let deepest = wide_depth.iter().copied().max().unwrap_or(0);
+        assert!(
+            deepest <= bvh.depth() / 2 + 1,
+            "wide depth {deepest} of {}",
+            bvh.depth()
+        );
         for (i, node) in bvh.nodes.iter().enumerate() {
             let first = node.first as usize;
             let inside = |b: Vec4| b.cmpge(node.bounds).all();
