@@ -12,6 +12,11 @@
 //! * **Packed boxes.** A box is stored as `(min.x, min.y, -max.x, -max.y)` and a query as
 //!   `(max.x, max.y, -min.x, -min.y)`; then "overlaps" is four `<=` at once (one SIMD compare and
 //!   a mask test), and the union of two boxes is one component-wise `min`.
+//! * **A four-wide copy for the queries.** After each build or refit the binary tree is folded
+//!   into nodes of up to four children (every other level), their packed boxes transposed so
+//!   that one four-lane comparison per coordinate tests all four: half the levels, and half
+//!   the unpredictable branches, of a binary walk (10 % faster queries on 1,000 items, 26 % on
+//!   100,000, BENCHMARKS.md).
 //! * **Leaves of up to [`LEAF_MAX_ITEMS`] items**, whose boxes and ids are stored contiguously in
 //!   leaf order, so scanning a leaf is a linear read with no indirection.
 //! * **Binned SAH build** (perimeter cost, the 2D surface-area heuristic), `O(n log n)`, falling
