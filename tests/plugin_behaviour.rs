@@ -573,6 +573,72 @@ fn teleport_between_steps_is_not_swept() {
     assert_eq!(impacts[0].other, wall);
 }
 
+/// Each step starts where its body was at the step's start: read back from the write-back for
+/// bodies nobody moved since (spinning boxes bouncing between two walls, so the write-back
+/// often moved them itself), and read off the `Transform` for one that moved while its CCD
+/// was off (the write-back skipped it, so its last answer is stale).
+#[test]
+fn each_step_starts_where_the_body_was() {
+    let mut app = app_with(Resolution::default(), Vec2::ZERO, true);
+    spawn_wall(&mut app, Vec2::new(-1.005, 0.0), 0.005, 3.0);
+    spawn_wall(&mut app, Vec2::new(1.005, 0.0), 0.005, 3.0);
+    let boxes: Vec<Entity> = (0..4)
+        .map(|i| {
+            let sign = if i % 2 == 0 { 1.0 } else { -1.0 };
+            app.world_mut()
+                .spawn((
+                    Collider::rectangle(0.1, 0.05).expect("valid box"),
+                    CcdEnabled::default(),
+                    Velocity {
+                        linear: Vec2::new(sign * 30.0, 0.0),
+                        angular: 5.0 + 5.0 * i as f32,
+                    },
+                    Restitution(1.0),
+                    Transform::from_xyz(-0.5 + 0.3 * i as f32, -1.5 + i as f32, 0.0),
+                ))
+                .id()
+        })
+        .collect();
+    let pose = |app: &App, e: Entity| {
+        let t = app.world().get::<Transform>(e).expect("box");
+        let q = t.rotation;
+        let angle = (2.0 * (q.x * q.y + q.w * q.z)).atan2(1.0 - 2.0 * (q.y * q.y + q.z * q.z));
+        (t.translation.truncate(), angle)
+    };
+    let mut hits = 0;
+    let mut checked_after_reenable = false;
+    for k in 0..120 {
+        // Off for steps 60 to 64: the movement system still moves it, nothing sweeps it.
+        if k == 60 || k == 65 {
+            app.world_mut()
+                .get_mut::<CcdEnabled>(boxes[0])
+                .expect("box")
+                .0 = k == 65;
+        }
+        let before: Vec<(Vec2, f32)> = boxes.iter().map(|&e| pose(&app, e)).collect();
+        step(&mut app);
+        for (&e, (p, a)) in boxes.iter().zip(before) {
+            let sweep = *app.world().get::<Sweep>(e).expect("box");
+            if !sweep.recorded {
+                continue;
+            }
+            checked_after_reenable |= e == boxes[0] && k == 65;
+            assert_eq!(sweep.start_position, p, "step {k}: start position");
+            let d = sweep.start_angle - a;
+            let d = d - (d / core::f32::consts::TAU).round() * core::f32::consts::TAU;
+            // Both are `atan2`s of the same quaternion, or the angle it was built from:
+            // a few rounding units of a turn.
+            assert!(d.abs() <= 1e-5, "step {k}: start angle off by {d}");
+            hits += toi(&app, e).impacts;
+        }
+    }
+    assert!(checked_after_reenable);
+    assert!(
+        hits > 50,
+        "only {hits} impacts: the write-back never moved a box"
+    );
+}
+
 // ---------------------------------------------------------------------------------------------
 // 3. Bouncing between two walls
 // ---------------------------------------------------------------------------------------------

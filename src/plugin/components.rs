@@ -223,6 +223,11 @@ pub struct Sweep {
     /// answer without a search.
     #[reflect(ignore)]
     pub(crate) slot: u32,
+    /// `resolved_*` is where the last write-back left the body (the workspace keeps the
+    /// tick it ran at): the next step's start can be read from it instead of from the
+    /// `Transform` when that has not changed since.
+    #[reflect(ignore)]
+    pub(crate) resolved_valid: bool,
 }
 
 impl Sweep {

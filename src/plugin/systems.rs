@@ -2,8 +2,10 @@
 //! write the answers back.
 
 use bevy_ecs::batching::BatchingStrategy;
+use bevy_ecs::change_detection::Tick;
 use bevy_ecs::prelude::*;
 use bevy_ecs::query::{IterQueryData, QueryFilter, QueryItem};
+use bevy_ecs::system::SystemChangeTick;
 use bevy_tasks::{ComputeTaskPool, TaskPool};
 use bevy_time::{Fixed, Time};
 use bevy_transform::components::Transform;
@@ -122,6 +124,9 @@ pub struct CcdWorkspace {
     /// Bodies per lane this step.
     lane_len: usize,
     settings: Option<SolveSettings>,
+    /// The tick the last write-back ran at: a `Transform` not changed since then is where
+    /// that write-back left it (see [`record_start`]).
+    written_at: Option<Tick>,
 }
 
 impl CcdWorkspace {
@@ -224,14 +229,29 @@ fn step_length(config: &CcdConfig, time: Option<&Time<Fixed>>) -> f32 {
 }
 
 /// [`super::CcdSystems::RecordStart`]: the start pose of every enabled body.
+///
+/// A body whose `Transform` has not changed since the last write-back is where that
+/// write-back left it, `Sweep::resolved_*`: its start is copied from there (the angle wrapped
+/// to a half turn either side of 0) instead of read off the quaternion with an `atan2`. That
+/// is every body the user moves only in the fixed step's movement systems, which run after
+/// this one.
 pub(crate) fn record_start(
     config: Res<CcdConfig>,
-    mut bodies: Query<(&Transform, &mut Sweep, &CcdEnabled), Without<StaticCollider>>,
+    workspace: Res<CcdWorkspace>,
+    ticks: SystemChangeTick,
+    mut bodies: Query<(Ref<Transform>, &mut Sweep, &CcdEnabled), Without<StaticCollider>>,
 ) {
-    let record = |(transform, mut sweep, enabled): (&Transform, Mut<Sweep>, &CcdEnabled)| {
+    let written_at = workspace.written_at;
+    let this_run = ticks.this_run();
+    let record = |(transform, mut sweep, enabled): (Ref<Transform>, Mut<Sweep>, &CcdEnabled)| {
         let sweep = sweep.bypass_change_detection();
         sweep.recorded = enabled.0;
-        if let Some((p, a)) = pose_of(transform) {
+        let unchanged = sweep.resolved_valid
+            && written_at.is_some_and(|at| !transform.last_changed().is_newer_than(at, this_run));
+        if unchanged {
+            sweep.start_position = sweep.resolved_position;
+            sweep.start_angle = wrap_angle(sweep.resolved_angle);
+        } else if let Some((p, a)) = pose_of(&transform) {
             sweep.start_position = p;
             sweep.start_angle = a;
         } else {
@@ -239,6 +259,20 @@ pub(crate) fn record_start(
         }
     };
     for_each_body(&config, &mut bodies, record);
+}
+
+/// `angle` less the whole turns nearest to it: within a half turn (and a rounding) of 0.
+/// Rounded by adding and subtracting 1.5 * 2^23 below 2^22 turns (`round` is a library call
+/// on baseline x86-64), where that is exact.
+fn wrap_angle(angle: f32) -> f32 {
+    use core::f32::consts::TAU;
+    const ROUND: f32 = 12_582_912.0;
+    let turns = angle / TAU;
+    if turns.abs() < 4_194_304.0 {
+        angle - ((turns + ROUND) - ROUND) * TAU
+    } else {
+        angle - turns.round() * TAU
+    }
 }
 
 /// [`super::CcdSystems::RecordEnd`]: the end pose, with the angle unwrapped.
@@ -610,7 +644,8 @@ fn set_error(toi: &mut TimeOfImpact, entity: Entity, error: CcdError) {
 #[allow(clippy::type_complexity)]
 pub(crate) fn write_back(
     config: Res<CcdConfig>,
-    workspace: Res<CcdWorkspace>,
+    mut workspace: ResMut<CcdWorkspace>,
+    ticks: SystemChangeTick,
     mut bodies: Query<
         (
             Entity,
@@ -623,7 +658,7 @@ pub(crate) fn write_back(
     >,
     mut impacts: MessageWriter<CcdImpact>,
 ) {
-    let ws = workspace.as_ref();
+    let ws: &CcdWorkspace = &workspace;
     let lane_len = ws.lane_len.max(1);
     let other = |target: u32| ws.static_entities[target as usize];
     let write = |(entity, mut transform, mut sweep, velocity, mut toi): (
@@ -633,14 +668,23 @@ pub(crate) fn write_back(
         Option<Mut<Velocity>>,
         Mut<TimeOfImpact>,
     )| {
-        let Some(index) = (sweep.slot as usize).checked_sub(1) else {
+        let Some(body) = (sweep.slot as usize)
+            .checked_sub(1)
+            .and_then(|index| ws.bodies.get(index).map(|b| (index, b)))
+            .filter(|(_, b)| b.entity == entity)
+        else {
+            // Not swept this step: its `Transform` may have moved without a write-back.
+            if sweep.resolved_valid {
+                sweep.bypass_change_detection().resolved_valid = false;
+            }
             return;
         };
-        let Some(body) = ws.bodies.get(index).filter(|b| b.entity == entity) else {
-            return;
-        };
+        let (index, body) = body;
         let failed = matches!(body.error, Some(e) if !matches!(e, CcdError::Toi(_)));
         if failed {
+            if sweep.resolved_valid {
+                sweep.bypass_change_detection().resolved_valid = false;
+            }
             set_error(
                 &mut toi,
                 entity,
@@ -664,6 +708,7 @@ pub(crate) fn write_back(
         let sweep = sweep.bypass_change_detection();
         sweep.resolved_position = position;
         sweep.resolved_angle = angle;
+        sweep.resolved_valid = true;
         sweep.local_center = body.sweep.local_center;
         if let Some(mut v) = velocity
             && body.flags & HAS_VELOCITY != 0
@@ -724,4 +769,5 @@ pub(crate) fn write_back(
             }
         }
     }
+    workspace.written_at = Some(ticks.this_run());
 }
