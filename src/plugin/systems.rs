@@ -262,16 +262,21 @@ pub(crate) fn record_start(
 }
 
 /// `angle` less the whole turns nearest to it: within a half turn (and a rounding) of 0.
-/// Rounded by adding and subtracting 1.5 * 2^23 below 2^22 turns (`round` is a library call
-/// on baseline x86-64), where that is exact.
 fn wrap_angle(angle: f32) -> f32 {
     use core::f32::consts::TAU;
+    angle - nearest_whole(angle / TAU) * TAU
+}
+
+/// The whole number nearest to `x`: below 2^22 by adding and subtracting 1.5 * 2^23 (which
+/// leaves no fraction bits; ties to even), where that is exact, since `round` is a library
+/// call on baseline x86-64; `round` above. Non-finite values stay as they are.
+#[inline]
+fn nearest_whole(x: f32) -> f32 {
     const ROUND: f32 = 12_582_912.0;
-    let turns = angle / TAU;
-    if turns.abs() < 4_194_304.0 {
-        angle - ((turns + ROUND) - ROUND) * TAU
+    if x.abs() < 4_194_304.0 {
+        (x + ROUND) - ROUND
     } else {
-        angle - turns.round() * TAU
+        x.round()
     }
 }
 
@@ -310,16 +315,11 @@ pub(crate) fn record_end(
         delta -= TAU * ((delta > PI) as i32 - (delta <= -PI) as i32) as f32;
         if let Some(v) = velocity {
             let expected = v.angular * dt;
-            // Whole turns to add: the nearest integer to (expected - delta) / TAU, rounded
-            // by adding and subtracting 1.5 * 2^23 (which leaves no fraction bits) below
-            // 2^22, where that is exact: `round` is a library call on baseline x86-64.
-            // A non-finite velocity adds nothing.
-            const ROUND: f32 = 12_582_912.0;
+            // Whole turns to add: the nearest to (expected - delta) / TAU. A non-finite
+            // velocity adds nothing.
             let turns = (expected - delta) / TAU;
-            if turns.abs() < 4_194_304.0 {
-                delta += ((turns + ROUND) - ROUND) * TAU;
-            } else if turns.is_finite() {
-                delta += turns.round() * TAU;
+            if turns.is_finite() {
+                delta += nearest_whole(turns) * TAU;
             }
         }
         sweep.end_angle = sweep.start_angle + delta;
