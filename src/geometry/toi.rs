@@ -743,7 +743,7 @@ pub fn time_of_impact(input: &ToiInput) -> ToiOutput {
 /// from `start` on.
 ///
 /// `start` must be a fraction before which the caller has proven the shapes stay out of hit
-/// range (the plugin's `earliest_reach`): the search then begins there, on a shorter
+/// range (the solver's `reach_interval`): the search then begins there, on a shorter
 /// interval with less turning to certify. An overlap can then only be reported at 0.
 pub(crate) fn time_of_impact_framed(
     input: &ToiInput,
