@@ -9,7 +9,8 @@
 //! CARGO_TARGET_DIR=target-scene cargo bench --bench scene
 //! SCENE_QUICK=1 ...   # N in {1k, 10k} only, peers at M = 1k only
 //! SCENE_PROFILE=clamp|substep ...   # only our 10k x 1k step, 1 thread, for `perf record`
-//!                                   # (SCENE_PROFILE_PARALLEL=1: on the pool; SCENE_PAIR_STATS=1:
+//!                                   # (SCENE_PROFILE_N / SCENE_PROFILE_M: other sizes;
+//!                                   # SCENE_PROFILE_PARALLEL=1: on the pool; SCENE_PAIR_STATS=1:
 //!                                   # time-of-impact statistics per pair class first;
 //!                                   # SCENE_SPEEDUP=1: three paired 1-vs-2-thread ratios)
 //! ```
@@ -699,7 +700,8 @@ fn pair_stats(lvl: &Level) {
 }
 
 /// `SCENE_PROFILE=clamp|substep`: only step our 10k-body, 1k-static scene on one thread, for a
-/// profiler (`perf record`), and print the phase medians.
+/// profiler (`perf record`), and print the phase medians. `SCENE_PROFILE_N` and
+/// `SCENE_PROFILE_M` change the body and static counts.
 fn profile(mode: &str) {
     let resolution = match mode {
         "substep" => Resolution::SubStep { max_substeps: 4 },
@@ -709,7 +711,16 @@ fn profile(mode: &str) {
         .ok()
         .and_then(|s| s.parse().ok())
         .unwrap_or(500);
-    let lvl = level(10_000, 1_000);
+    let size = |name: &str, default: usize| {
+        std::env::var(name)
+            .ok()
+            .and_then(|s| s.parse().ok())
+            .unwrap_or(default)
+    };
+    let lvl = level(
+        size("SCENE_PROFILE_N", 10_000),
+        size("SCENE_PROFILE_M", 1_000),
+    );
     if std::env::var_os("SCENE_PAIR_STATS").is_some() {
         pair_stats(&lvl);
     }
