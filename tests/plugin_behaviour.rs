@@ -1654,3 +1654,68 @@ fn statics_added_moved_reshaped_and_removed_are_seen_at_the_next_step() {
     app.world_mut().despawn(wall.expect("spawned"));
     assert_eq!(shot(&mut app, ball), (true, 1, rebuilds + 1), "despawned");
 }
+
+/// A body's collider replaced mid-run: the broad phase uses the new shape at the next step
+/// (the plugin keeps a summary of the collider in `Sweep`, updated by the components' hooks).
+/// A rod standing upright 1 m left of a wall turns a quarter turn per step about its centre;
+/// as a 10 cm ball it reaches nothing, as a 3 m rod (1.5 m either side) it sweeps into the
+/// wall's face at x = 1 during its first quarter turn.
+#[test]
+fn a_replaced_collider_is_swept_with_its_new_shape() {
+    use core::f32::consts::FRAC_PI_2;
+    let mut app = app_with(Resolution::default(), Vec2::ZERO, true);
+    spawn_wall(&mut app, Vec2::new(1.05, 0.0), 0.05, 5.0);
+    let body = spawn_ball(&mut app, 0.1, Vec2::ZERO, Vec2::ZERO);
+    // Offset by (0, 0.25): the centre of mass is no longer the origin.
+    let ball = Collider::circle(0.1)
+        .and_then(|c| c.with_offset(Vec2::new(0.0, 0.25)))
+        .expect("valid ball");
+    let rod = Collider::capsule(1.5, 0.05).expect("valid rod");
+    let upright = || Transform::from_rotation(glam::Quat::from_rotation_z(FRAC_PI_2));
+    let turn = |app: &mut App| {
+        // Upright at the start of the step (a teleport between steps), a quarter turn
+        // clockwise by the end, toward the wall (the user's integration of the velocity).
+        *app.world_mut().get_mut::<Transform>(body).expect("body") = upright();
+        app.world_mut().entity_mut(body).insert(Velocity {
+            linear: Vec2::ZERO,
+            angular: -FRAC_PI_2 / DT as f32,
+        });
+        step(app);
+    };
+    app.world_mut().entity_mut(body).insert(ball);
+    turn(&mut app);
+    let sweep = *app.world().get::<Sweep>(body).expect("swept");
+    assert_eq!(
+        sweep.local_center,
+        Vec2::new(0.0, 0.25),
+        "centre of the offset ball"
+    );
+    assert_eq!(
+        toi(&app, body).status,
+        CcdStatus::Clear,
+        "the ball reaches nothing"
+    );
+
+    app.world_mut().entity_mut(body).insert(rod);
+    turn(&mut app);
+    let sweep = *app.world().get::<Sweep>(body).expect("swept");
+    assert_eq!(sweep.local_center, Vec2::ZERO, "centre of the rod");
+    let outcome = toi(&app, body);
+    assert_eq!(
+        outcome.status,
+        CcdStatus::Hit,
+        "the rod sweeps into the wall"
+    );
+    // The rod's rounded end (a 5 cm disc 1.5 m from the centre) first comes within the slop
+    // of the face at x = 1 where 1.5 cos(angle) + 0.05 = 1 - slop, part way through the
+    // quarter turn. The hit band is slop ± slop/4 in distance; there the end moves toward
+    // the wall at 1.5 sin(angle) ≈ 1.16 m per radian, so the band is ±0.0011 rad of angle:
+    // 0.002 rad allows that and rounding.
+    let first = outcome.first_hit.expect("a hit");
+    let expected = ((1.0 - SLOP - 0.05) / 1.5).acos();
+    let angle = FRAC_PI_2 * (1.0 - first.fraction);
+    assert!(
+        (angle - expected).abs() < 0.002,
+        "hit at angle {angle}, expected {expected}"
+    );
+}

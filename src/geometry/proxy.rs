@@ -109,9 +109,14 @@ impl ShapeProxy {
             self.aabb(sweep.pose_at(0.0))
                 .union(self.aabb(sweep.pose_at(1.0)))
         } else {
-            let reach = self.max_distance_from(sweep.local_center) + self.radius;
-            Aabb::from_corners(sweep.c0, sweep.c1).expanded(reach)
+            sweep.swept_disc_aabb(self.reach(sweep.local_center))
         }
+    }
+
+    /// The radius of the disc about `center` that holds the whole shape (m): the farthest core
+    /// point plus the radius. Whatever the angle, the shape stays inside it.
+    pub fn reach(&self, center: Vec2) -> f32 {
+        self.max_distance_from(center) + self.radius
     }
 
     /// The radius of a disc around `center` that fits inside the shape (m): the distance to the

@@ -105,8 +105,13 @@ impl StaticSet {
     /// Appends to `out` the targets whose boxes overlap the swept box of `proxy` over `sweep`
     /// (grown by `margin`), in ascending index order.
     pub fn candidates(&self, proxy: &ShapeProxy, sweep: &Sweep, margin: f32, out: &mut Vec<u32>) {
-        let bounds = proxy.swept_aabb(sweep).expanded(margin);
-        self.bvh.query(&bounds, out);
+        self.candidates_in(proxy.swept_aabb(sweep), margin, out);
+    }
+
+    /// The ids of the statics whose boxes overlap `bounds` grown by `margin` (m), in ascending
+    /// order, appended to `out`: [`StaticSet::candidates`] for a swept box computed elsewhere.
+    pub fn candidates_in(&self, bounds: Aabb, margin: f32, out: &mut Vec<u32>) {
+        self.bvh.query(&bounds.expanded(margin), out);
     }
 }
 

@@ -563,8 +563,7 @@ impl Shape {
 
     /// The largest distance from `center` to any point of the shape (m).
     pub fn extent_from(&self, center: Vec2) -> f32 {
-        let proxy = self.proxy();
-        proxy.max_distance_from(center) + proxy.radius
+        self.proxy().reach(center)
     }
 }
 

@@ -16,6 +16,7 @@
 use glam::Vec2;
 
 use super::math::{Pose, Rot};
+use super::shape::Aabb;
 
 /// The motion of one body over a step, with constant linear and angular velocity.
 ///
@@ -71,6 +72,13 @@ impl Sweep {
     /// A body at rest at `pose` (origin position and angle).
     pub fn stationary(local_center: Vec2, p: Vec2, angle: f32) -> Self {
         Self::from_origins(local_center, p, angle, p, angle)
+    }
+
+    /// Bounds of everything within `reach` of the centre of mass's path: with
+    /// `reach = proxy.reach(local_center)`, a box that holds the shape over the whole step,
+    /// at any angle.
+    pub fn swept_disc_aabb(&self, reach: f32) -> Aabb {
+        Aabb::from_corners(self.c0, self.c1).expanded(reach)
     }
 
     /// The centre of mass at fraction `t`.

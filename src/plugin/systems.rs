@@ -29,8 +29,8 @@ use crate::geometry::{
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct BodyEntry {
     entity: Entity,
-    /// The motion over the step. The serial pass stores the raw origins here (centre zero);
-    /// the parallel pass turns them into the centre-of-mass sweep.
+    /// The motion over the step. The serial pass stores the raw origins here (with the centre
+    /// of mass in the body frame); the parallel pass turns them into the centre-of-mass sweep.
     sweep: geometry::Sweep,
     mass: f32,
     inertia: f32,
@@ -52,6 +52,8 @@ pub(crate) struct BodyEntry {
     flags: u8,
     /// Why the body was not swept, or the time of impact that failed.
     error: Option<CcdError>,
+    /// The shape's reach about its centre of mass ([`Sweep`]'s copy of the collider's).
+    reach: f32,
 }
 
 /// [`BodyEntry::flags`]: the body keeps a [`Velocity`].
@@ -60,13 +62,15 @@ const HAS_VELOCITY: u8 = 1;
 const OVERLAPPING: u8 = 2;
 /// [`BodyEntry::flags`]: a [`BodyMass`] gave the mass and inertia.
 const HAS_MASS: u8 = 4;
+/// [`BodyEntry::flags`]: the collider's own mass and inertia are usable.
+const COLLIDER_MASS_OK: u8 = 8;
 
 impl BodyEntry {
     fn new(entity: Entity, sweep: &Sweep) -> Self {
         Self {
             entity,
             sweep: geometry::Sweep {
-                local_center: Vec2::ZERO,
+                local_center: sweep.local_center,
                 c0: sweep.start_position,
                 c1: sweep.end_position,
                 a0: sweep.start_angle,
@@ -85,8 +89,9 @@ impl BodyEntry {
             substeps: 0,
             position: Vec2::ZERO,
             angle: 0.0,
-            flags: 0,
+            flags: if sweep.mass_ok { COLLIDER_MASS_OK } else { 0 },
             error: None,
+            reach: sweep.reach,
         }
     }
 }
@@ -490,16 +495,23 @@ pub(crate) fn gather_bodies(
                 body.error = Some(CcdError::ZeroLengthStep);
                 continue;
             }
-            let Ok(collider) = colliders.get(body.entity) else {
-                body.error = Some(CcdError::InvalidBodyData);
-                continue;
-            };
-            if let Err(error) = fill(body, collider) {
+            if let Err(error) = fill(body) {
                 body.error = Some(error);
                 continue;
             }
+            // A turning body's bound comes from its reach, kept in `Sweep`: its collider is
+            // not read here (it is, in the solve, for the bodies with candidates). A body
+            // that does not turn gets the tighter box of its shape at both ends.
+            let bounds = if body.sweep.a0 != body.sweep.a1 {
+                body.sweep.swept_disc_aabb(body.reach)
+            } else if let Ok(collider) = colliders.get(body.entity) {
+                collider.proxy().swept_aabb(&body.sweep)
+            } else {
+                body.error = Some(CcdError::InvalidBodyData);
+                continue;
+            };
             let start = lane.candidates.len();
-            statics.candidates(collider.proxy(), &body.sweep, margin, &mut lane.candidates);
+            statics.candidates_in(bounds, margin, &mut lane.candidates);
             body.candidates = start as u32;
             body.candidate_count = (lane.candidates.len() - start) as u32;
         }
@@ -515,12 +527,12 @@ const MIN_LANE_LEN: usize = 64;
 /// many proxies, about 80 bytes each).
 const SOLVE_BATCH: usize = 16;
 
-/// Checks one body's data and completes its entry: the sweep about the centre of mass, and
-/// the mass from the collider unless a [`BodyMass`] gave one.
-fn fill(body: &mut BodyEntry, collider: &Collider) -> Result<(), CcdError> {
-    let props = collider.mass_properties(1.0);
+/// Checks one body's data and completes its entry's sweep, about the centre of mass. The
+/// mass is taken from the collider in the solve, when a [`BodyMass`] gave none and the body
+/// has targets in reach.
+fn fill(body: &mut BodyEntry) -> Result<(), CcdError> {
     let raw = body.sweep;
-    let motion = geometry::Sweep::from_origins(props.center, raw.c0, raw.a0, raw.c1, raw.a1);
+    let motion = geometry::Sweep::from_origins(raw.local_center, raw.c0, raw.a0, raw.c1, raw.a1);
     if !motion.is_finite() {
         return Err(CcdError::NonFiniteTransform);
     }
@@ -532,14 +544,13 @@ fn fill(body: &mut BodyEntry, collider: &Collider) -> Result<(), CcdError> {
     if big > MAX_WORLD_COORDINATE {
         return Err(CcdError::CoordinatesTooLarge);
     }
-    if body.flags & HAS_MASS == 0 {
-        body.mass = props.mass;
-        body.inertia = props.inertia;
-    }
-    let valid = body.mass.is_finite()
-        && body.mass > 0.0
-        && body.inertia.is_finite()
-        && body.inertia > 0.0
+    let mass_ok = if body.flags & HAS_MASS != 0 {
+        body.mass.is_finite() && body.mass > 0.0 && body.inertia.is_finite() && body.inertia > 0.0
+    } else {
+        body.flags & COLLIDER_MASS_OK != 0
+    };
+    let valid = mass_ok
+        && body.reach.is_finite()
         && body.restitution.is_finite()
         && body.friction.is_finite()
         && body.friction >= 0.0
@@ -591,6 +602,11 @@ pub(crate) fn solve_bodies(
                 if body.error.is_none() && body.candidate_count > 0 {
                     match colliders.get(body.entity) {
                         Ok(collider) => {
+                            if body.flags & HAS_MASS == 0 {
+                                let props = collider.mass_properties(1.0);
+                                body.mass = props.mass;
+                                body.inertia = props.inertia;
+                            }
                             shapes[n] = (*collider.proxy(), collider.core_radius());
                             batch[n] = next;
                             n += 1;
@@ -724,7 +740,6 @@ pub(crate) fn write_back(
         sweep.resolved_position = position;
         sweep.resolved_angle = angle;
         sweep.resolved_valid = true;
-        sweep.local_center = body.sweep.local_center;
         if let Some(mut v) = velocity
             && body.flags & HAS_VELOCITY != 0
             && (v.linear != body.velocity || v.angular != body.angular)
