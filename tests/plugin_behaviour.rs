@@ -444,11 +444,11 @@ fn reenabled_body_is_stopped_by_a_wall() {
 fn swept_body_that_hits_nothing_keeps_the_users_pose_bits() {
     // Pairs of identical spinning bodies far from the only wall, one swept and one not. The
     // swept one hits nothing, so the plugin must leave the pose its user wrote untouched, bit
-    // for bit. Some shapes' centres of mass come out ~1e-8 m off their origins, and near the
-    // world origin that is an ulp: a pose rebuilt from the solver's would differ.
+    // for bit. The shapes are offset from their origins by a few millimetres, so a pose
+    // rebuilt from the solver's (which sweeps the centre of mass) would differ.
     let mut app = app_with(Resolution::default(), Vec2::ZERO, true);
     spawn_wall(&mut app, Vec2::new(100.0, 0.0), 0.005, 1.0);
-    // The arena's bodies whose centre of mass is not exactly at their origin.
+    // The arena's body shapes, each offset so that its centre of mass is off its origin.
     let mut scratch = World::new();
     let arena = spawn_arena(
         &mut scratch,
@@ -460,13 +460,22 @@ fn swept_body_that_hits_nothing_keeps_the_users_pose_bits() {
     let shapes: Vec<Collider> = arena
         .bodies
         .iter()
-        .map(|e| *scratch.get::<Collider>(*e).expect("arena body"))
-        .filter(|c| c.mass_properties(1.0).center != Vec2::ZERO)
         .take(20)
+        .enumerate()
+        .map(|(k, e)| {
+            let offset = 1e-3 * (k + 1) as f32 * Vec2::new(1.0, -0.7);
+            scratch
+                .get::<Collider>(*e)
+                .expect("arena body")
+                .with_offset(offset)
+                .expect("valid offset")
+        })
         .collect();
     assert!(
-        shapes.len() >= 10,
-        "the arena must hold shapes with an off-origin centre"
+        shapes
+            .iter()
+            .all(|c| c.mass_properties(1.0).center != Vec2::ZERO),
+        "every shape has an off-origin centre"
     );
     let mut pairs = Vec::new();
     for (k, collider) in shapes.into_iter().enumerate() {
