@@ -10,6 +10,7 @@
 //! SCENE_QUICK=1 ...   # N in {1k, 10k} only, peers at M = 1k only
 //! SCENE_PROFILE=clamp|substep ...   # only our 10k x 1k step, 1 thread, for `perf record`
 //!                                   # (SCENE_PROFILE_N / SCENE_PROFILE_M: other sizes;
+//!                                   # SCENE_PROFILE_BARE=1: also the step without timestamps;
 //!                                   # SCENE_PROFILE_PARALLEL=1: on the pool; SCENE_PAIR_STATS=1:
 //!                                   # time-of-impact statistics per pair class first;
 //!                                   # SCENE_SPEEDUP=1: three paired 1-vs-2-thread ratios)
@@ -18,7 +19,11 @@
 //! The machine this runs on drifts by more than the targets' margins over minutes, so each
 //! ratio is also measured in *paired rounds* (the two sides alternate step by step for about
 //! two seconds and the medians of the two series are compared): 1 vs 2 threads, the plugin
-//! step vs its kernels, and each peer with its CCD on vs off.
+//! step vs its kernels, each peer with its CCD on vs off, and our clamp step against each
+//! peer's two worlds, all three in the same rounds.
+//!
+//! Our step times are taken without instrumentation; the phase split comes from a second
+//! copy of the scene with timestamp systems between the CCD sets.
 //!
 //! Every timed iteration starts from the same state: the bodies are put back at their start
 //! pose and velocity (untimed), `RecordStart` runs (timed), the bodies are moved to their free
@@ -97,29 +102,33 @@ struct Ours {
 type Phases = [f64; 6];
 
 impl Ours {
-    fn new(level: &Level) -> Self {
+    /// `stamped`: with the five timestamp systems between the CCD sets, for the phase split.
+    /// They cost the executor about 5 µs a step, so the step times are taken without them.
+    fn new(level: &Level, stamped: bool) -> Self {
         let mut app = headless_app(DT as f64);
         app.insert_resource(CcdConfig {
             timestep: Some(DT),
             ..Default::default()
         });
         app.init_resource::<Stamps>();
-        app.add_systems(
-            FixedPostUpdate,
-            (
-                stamp::<0>.before(CcdSystems::RecordEnd),
-                stamp::<1>
-                    .after(CcdSystems::RecordEnd)
-                    .before(CcdSystems::BroadPhase),
-                stamp::<2>
-                    .after(CcdSystems::BroadPhase)
-                    .before(CcdSystems::TimeOfImpact),
-                stamp::<3>
-                    .after(CcdSystems::TimeOfImpact)
-                    .before(CcdSystems::Resolve),
-                stamp::<4>.after(CcdSystems::Resolve),
-            ),
-        );
+        if stamped {
+            app.add_systems(
+                FixedPostUpdate,
+                (
+                    stamp::<0>.before(CcdSystems::RecordEnd),
+                    stamp::<1>
+                        .after(CcdSystems::RecordEnd)
+                        .before(CcdSystems::BroadPhase),
+                    stamp::<2>
+                        .after(CcdSystems::BroadPhase)
+                        .before(CcdSystems::TimeOfImpact),
+                    stamp::<3>
+                        .after(CcdSystems::TimeOfImpact)
+                        .before(CcdSystems::Resolve),
+                    stamp::<4>.after(CcdSystems::Resolve),
+                ),
+            );
+        }
         let arena = spawn_level(app.world_mut(), level, true);
         let start = level
             .bodies
@@ -174,7 +183,11 @@ impl Ours {
         let t1 = Instant::now();
         world.run_schedule(FixedPostUpdate);
         let b = t1.elapsed().as_secs_f64();
-        let s = world.resource::<Stamps>().0.map(|s| s.expect("stamped"));
+        let stamps = world.resource::<Stamps>().0;
+        if stamps[0].is_none() {
+            return [a + b, 0.0, 0.0, 0.0, 0.0, 0.0];
+        }
+        let s = stamps.map(|s| s.expect("stamped"));
         let d = |i: usize, j: usize| (s[j] - s[i]).as_secs_f64();
         [a + b, a + d(0, 1), d(1, 2), d(2, 3), d(3, 4), b - d(0, 4)]
     }
@@ -635,6 +648,35 @@ fn paired_difference(off: &mut dyn Peer, on: &mut dyn Peer) -> (f64, usize) {
     (median(&mut diffs), rounds)
 }
 
+/// Our 1-thread clamp step over a peer's added CCD cost, all three measured in the same
+/// rounds (ours, then the peer's two worlds in alternating order), for about two seconds (at
+/// least 15 and at most 400 rounds): the median of our step times over the median of the
+/// peer's `on - off` differences. The ratio the targets name, free of the drift between a
+/// measurement of ours early in the run and the peer's minutes later.
+fn paired_ratio(ours: &mut Ours, off: &mut dyn Peer, on: &mut dyn Peer) -> (f64, usize) {
+    let (mut mine, mut diffs) = (Vec::new(), Vec::new());
+    let start = Instant::now();
+    while diffs.len() < 400 && (diffs.len() < 15 || start.elapsed().as_secs_f64() < 2.0) {
+        mine.push(ours.step()[0]);
+        let time = |peer: &mut dyn Peer| {
+            peer.reset();
+            let t = Instant::now();
+            peer.step();
+            t.elapsed().as_secs_f64()
+        };
+        let (a, b) = if diffs.len() % 2 == 0 {
+            let a = time(off);
+            (a, time(on))
+        } else {
+            let b = time(on);
+            (time(off), b)
+        };
+        diffs.push(b - a);
+    }
+    let rounds = diffs.len();
+    (median(&mut mine) / median(&mut diffs), rounds)
+}
+
 fn mode_name(r: Resolution) -> &'static str {
     match r {
         Resolution::Clamp => "clamp",
@@ -724,7 +766,7 @@ fn profile(mode: &str) {
     if std::env::var_os("SCENE_PAIR_STATS").is_some() {
         pair_stats(&lvl);
     }
-    let mut ours = Ours::new(&lvl);
+    let mut ours = Ours::new(&lvl, true);
     if std::env::var_os("SCENE_SPEEDUP").is_some() {
         for _ in 0..3 {
             let (speedup, rounds) = paired_speedup(&mut ours, resolution);
@@ -737,6 +779,16 @@ fn profile(mode: &str) {
         std::env::var_os("SCENE_PROFILE_PARALLEL").is_some(),
     );
     let mut phases: Vec<Phases> = (0..steps).map(|_| ours.step()).collect();
+    if std::env::var_os("SCENE_PROFILE_BARE").is_some() {
+        // The same scene without the timestamp systems: the step time as the bench takes it.
+        let mut bare = Ours::new(&lvl, false);
+        bare.configure(
+            resolution,
+            std::env::var_os("SCENE_PROFILE_PARALLEL").is_some(),
+        );
+        let mut v: Vec<f64> = (0..steps).map(|_| bare.step()[0]).collect();
+        println!("step without timestamps: {:.3} ms", median(&mut v) * 1e3);
+    }
     let names = [
         "step",
         "record",
@@ -782,7 +834,9 @@ fn main() {
             let t = Instant::now();
             let lvl = level(n, m);
             let build = t.elapsed().as_secs_f64();
-            let mut app = Ours::new(&lvl);
+            let mut app = Ours::new(&lvl, false);
+            // The same scene with the timestamps, for the phase split only.
+            let mut probe = Ours::new(&lvl, true);
             eprintln!(
                 "scene n={n} m={m}: generated in {build:.2} s, spawned in {:.2} s",
                 t.elapsed().as_secs_f64() - build
@@ -792,17 +846,19 @@ fn main() {
                     app.configure(mode, parallel);
                     app.step();
                     let th = if parallel { threads } else { 1 };
-                    let mut phases: Vec<Phases> = Vec::new();
                     let mut samples = bench_custom(
                         &mut c,
                         &format!("ours/n{n}/m{m}"),
                         &format!("{}/{th}t", mode_name(mode)),
-                        || {
-                            let p = app.step();
-                            phases.push(p);
-                            p[0]
-                        },
+                        || app.step()[0],
                     );
+                    // The phase split, from the stamped copy: as many steps as criterion
+                    // took, within 15 to 200.
+                    probe.configure(mode, parallel);
+                    probe.step();
+                    let phases: Vec<Phases> = (0..samples.len().clamp(15, 200))
+                        .map(|_| probe.step())
+                        .collect();
                     let med = median(&mut samples);
                     ours.insert((n, m, mode_name(mode), th), med);
                     let (imp, sub, err) = app.outcome();
@@ -937,6 +993,13 @@ fn main() {
         }
     }
     writeln!(out, "\n### Ours: phases (medians, ms)\n").unwrap();
+    writeln!(
+        out,
+        "`step` is the criterion median of the scene without timestamps; the phases come from a \
+         copy of the scene with timestamp systems between the CCD sets (which cost the \
+         executor a few µs), so their sum can exceed `step`.\n"
+    )
+    .unwrap();
     writeln!(out, "| N | M | mode | threads | step | record | broad phase | TOI | resolve | schedule | sum of phase medians | impacts | sub-steps | errors |").unwrap();
     writeln!(
         out,
@@ -969,12 +1032,16 @@ fn main() {
         "\n### Peers: median full step (ms), CCD on vs off, 1 thread\n"
     )
     .unwrap();
-    writeln!(out, "| engine | N | M | step CCD off | step CCD on | CCD cost/body from the two medians (µs) | CCD cost/body, paired (µs) (rounds) | bodies its CCD moved | ours clamp 1t µs/body | ours clamp / peer (paired) | ours substep 1t µs/body | ours substep 2t µs/body |").unwrap();
-    writeln!(out, "|---|---|---|---|---|---|---|---|---|---|---|---|").unwrap();
+    writeln!(out, "| engine | N | M | step CCD off | step CCD on | CCD cost/body from the two medians (µs) | CCD cost/body, paired (µs) (rounds) | bodies its CCD moved | ours clamp 1t µs/body | ours clamp / peer (paired) | ours clamp / peer, three-way paired (rounds) | ours substep 1t µs/body | ours substep 2t µs/body |").unwrap();
+    writeln!(out, "|---|---|---|---|---|---|---|---|---|---|---|---|---|").unwrap();
     let peer_ms: &[usize] = if quick { &[1_000] } else { &[1_000, 100_000] };
     for &m in peer_ms {
         for &n in &[1_000usize, 10_000] {
             let lvl = level(n, m);
+            // Ours again, clamp on one thread, to step in the same rounds as each peer.
+            let mut mine = Ours::new(&lvl, false);
+            mine.configure(Resolution::Clamp, false);
+            mine.step();
             for engine in ["box2d", "box2d bullets", "rapier", "rapier ccd_enabled"] {
                 let mut med = [0.0; 2];
                 let mut ends: [Vec<Vec2>; 2] = Default::default();
@@ -1018,9 +1085,12 @@ fn main() {
                 // The added cost from paired rounds: the two worlds step alternately from the
                 // same reset state and the median of the per-round differences is taken, which
                 // cancels the machine's slow drifts that two separate medians keep.
-                let (paired, rounds) = {
+                let ((paired, rounds), (three, three_rounds)) = {
                     let (off, on) = worlds.split_at_mut(1);
-                    paired_difference(off[0].as_mut(), on[0].as_mut())
+                    (
+                        paired_difference(off[0].as_mut(), on[0].as_mut()),
+                        paired_ratio(&mut mine, off[0].as_mut(), on[0].as_mut()),
+                    )
                 };
                 // Evidence that the peer's CCD did work in the timed step: bodies whose end
                 // position it changed by more than a millimetre.
@@ -1047,7 +1117,7 @@ fn main() {
                 };
                 writeln!(
                     out,
-                    "| {engine} | {n} | {m} | {:.3} | {:.3} | {per_separate:.3} | {per:.3} ({rounds}) | {changed} | {oc:.3} | {ratio} | {os:.3} | {os2:.3} |",
+                    "| {engine} | {n} | {m} | {:.3} | {:.3} | {per_separate:.3} | {per:.3} ({rounds}) | {changed} | {oc:.3} | {ratio} | {three:.2} ({three_rounds}) | {os:.3} | {os2:.3} |",
                     med[0] * 1e3,
                     med[1] * 1e3,
                 )
