@@ -240,12 +240,19 @@ struct Motion {
 
 impl Motion {
     /// `frame`: the body's start rotation and reach, as [`BodyFrame::new`] computes them.
-    fn new(sweep: &Sweep, origin: Vec2, frame: BodyFrame) -> Self {
+    ///
+    /// A body whose core is one point at its centre of mass (a disc spun about its centre) is
+    /// moved without its turn: turning moves none of its points, so its separation from
+    /// anything is what it would be without the turn, and dropping it spares a sine and a
+    /// cosine per pose and lets a pair with a non-turning target take the linear path (no
+    /// certification), as a translation does in Box2D.
+    fn new(sweep: &Sweep, proxy: &ShapeProxy, origin: Vec2, frame: BodyFrame) -> Self {
+        let turns = !(proxy.count() == 1 && frame.reach == 0.0);
         Self {
             c0: sweep.c0 - origin,
             v: sweep.c1 - sweep.c0,
             a0: reduced_angle(sweep.a0),
-            w: sweep.a1 - sweep.a0,
+            w: if turns { sweep.a1 - sweep.a0 } else { 0.0 },
             local_center: sweep.local_center,
             q0: frame.q0,
             reach: frame.reach,
@@ -759,9 +766,9 @@ pub(crate) fn time_of_impact_framed(
     // Work relative to A's start: far from the world origin, differences of nearby large
     // coordinates are exact in f32 (Sterbenz), so the query keeps its precision.
     let origin = input.sweep_a.c0;
-    let any_rotation = input.sweep_a.a1 != input.sweep_a.a0 || input.sweep_b.a1 != input.sweep_b.a0;
-    let motion_a = Motion::new(&input.sweep_a, origin, frame_a);
-    let motion_b = Motion::new(&input.sweep_b, origin, frame_b);
+    let motion_a = Motion::new(&input.sweep_a, proxy_a, origin, frame_a);
+    let motion_b = Motion::new(&input.sweep_b, proxy_b, origin, frame_b);
+    let any_rotation = motion_a.w != 0.0 || motion_b.w != 0.0;
 
     let t_max = input.max_fraction;
     let total_radius = proxy_a.radius + proxy_b.radius;
