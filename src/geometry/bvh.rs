@@ -129,7 +129,6 @@ fn pack_query(b: &Aabb) -> Vec4 {
     Vec4::select(q.cmpgt(cap), cap, q)
 }
 
-
 /// One node of the tree: 32 bytes (the packed box, 8 bytes of indices and 8 of padding from
 /// the 16-byte alignment of `Vec4`); a sibling pair is 64 bytes.
 #[derive(Clone, Copy, Debug, PartialEq)]

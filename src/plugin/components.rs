@@ -299,13 +299,8 @@ pub struct Sweep {
     pub local_center: Vec2,
     /// Whether the start pose was recorded in the current step. The default is `false`.
     pub recorded: bool,
-    /// Where the plugin keeps this body in its workspace this step, plus one (0: not
-    /// gathered). Lets the write-back run over the bodies in parallel and find each one's
-    /// answer without a search.
-    #[reflect(ignore)]
-    pub(crate) slot: u32,
-    /// `resolved_*` is where the last write-back left the body (the workspace keeps the
-    /// tick it ran at): the next step's start can be read from it instead of from the
+    /// `resolved_*` is where the last step left the body (the workspace keeps the tick its
+    /// write-back ran at): the next step's start can be read from it instead of from the
     /// `Transform` when that has not changed since.
     #[reflect(ignore)]
     pub(crate) resolved_valid: bool,

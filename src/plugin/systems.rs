@@ -64,6 +64,17 @@ const OVERLAPPING: u8 = 2;
 const HAS_MASS: u8 = 4;
 /// [`BodyEntry::flags`]: the collider's own mass and inertia are usable.
 const COLLIDER_MASS_OK: u8 = 8;
+/// [`BodyEntry::flags`]: the body's [`TimeOfImpact`] was [`CLEAR`] before this step.
+const WAS_CLEAR: u8 = 16;
+
+/// The outcome of a step in which a body was swept and nothing happened.
+const CLEAR: TimeOfImpact = TimeOfImpact {
+    status: CcdStatus::Clear,
+    first_hit: None,
+    error: None,
+    impacts: 0,
+    substeps: 0,
+};
 
 impl BodyEntry {
     fn new(entity: Entity, sweep: &Sweep) -> Self {
@@ -105,6 +116,9 @@ struct Lane {
     impacts: Vec<ImpactRecord>,
     /// The bodies (index within the lane) that have impacts, in order.
     hit: Vec<u32>,
+    /// The bodies (index within the lane) whose components the write-back must visit: those
+    /// with impacts, errors or overlaps, and those whose outcome was not [`CLEAR`] before.
+    visit: Vec<u32>,
     scratch: Vec<u32>,
 }
 
@@ -112,7 +126,8 @@ impl Lane {
     fn bytes(&self) -> usize {
         self.candidates.capacity() * size_of::<u32>()
             + self.impacts.capacity() * size_of::<ImpactRecord>()
-            + (self.hit.capacity() + self.scratch.capacity()) * size_of::<u32>()
+            + (self.hit.capacity() + self.visit.capacity() + self.scratch.capacity())
+                * size_of::<u32>()
     }
 }
 
@@ -298,7 +313,8 @@ fn nearest_whole(x: f32) -> f32 {
     }
 }
 
-/// [`super::CcdSystems::RecordEnd`]: the end pose, with the angle unwrapped.
+/// [`super::CcdSystems::RecordEnd`]: the end pose, with the angle unwrapped; also the
+/// resolved pose, as it is unless the body hits something.
 ///
 /// A `Transform` only knows the angle modulo a turn. Without a [`Velocity`], the shorter way
 /// round is taken; with one, the number of whole turns is the one closest to
@@ -318,6 +334,7 @@ pub(crate) fn record_end(
         let sweep = sweep.bypass_change_detection();
         let Some((p, a)) = pose_of(transform) else {
             sweep.end_position = Vec2::NAN;
+            sweep.resolved_valid = false;
             return;
         };
         sweep.end_position = p;
@@ -341,6 +358,11 @@ pub(crate) fn record_end(
             }
         }
         sweep.end_angle = sweep.start_angle + delta;
+        // Where the step leaves the body unless it hits something or fails, which the
+        // write-back then corrects: most bodies are not visited there at all.
+        sweep.resolved_position = p;
+        sweep.resolved_angle = sweep.end_angle;
+        sweep.resolved_valid = true;
     };
     for_each_body(&config, &mut bodies, record);
 }
@@ -436,8 +458,9 @@ pub(crate) fn gather_bodies(
     for (entity, mut sweep, enabled, mut toi, velocity, restitution, friction, mass) in &mut bodies
     {
         if !enabled.is_some_and(|e| e.0) || !sweep.recorded {
-            if sweep.slot != 0 {
-                sweep.slot = 0;
+            // Not swept: its `Transform` may move without a write-back.
+            if sweep.resolved_valid {
+                sweep.bypass_change_detection().resolved_valid = false;
             }
             if toi.status != CcdStatus::Idle {
                 *toi = TimeOfImpact::default();
@@ -445,6 +468,9 @@ pub(crate) fn gather_bodies(
             continue;
         }
         let mut entry = BodyEntry::new(entity, &sweep);
+        if *toi == CLEAR {
+            entry.flags |= WAS_CLEAR;
+        }
         if let Some(v) = velocity {
             entry.velocity = v.linear;
             entry.angular = v.angular;
@@ -458,11 +484,6 @@ pub(crate) fn gather_bodies(
         entry.restitution = restitution.map_or(0.0, |r| r.0);
         entry.friction = friction.map_or(0.0, |f| f.0);
         entries.push(entry);
-        // Usually the same slot as last step: then leave the component unwritten.
-        let slot = entries.len() as u32;
-        if sweep.slot != slot {
-            sweep.slot = slot;
-        }
     }
     let pool = pool(&config);
     let lanes = pool.map_or(1, |p| p.thread_num() * LANES_PER_THREAD);
@@ -582,10 +603,12 @@ pub(crate) fn solve_bodies(
             candidates,
             impacts,
             hit,
+            visit,
             scratch,
         } = lane;
         impacts.clear();
         hit.clear();
+        visit.clear();
         // The shapes of the bodies to solve are read from their colliders in batches: the
         // reads of one batch are independent, so their cache misses overlap instead of each
         // stalling a time of impact (4 % of a 10,000-body step before, `perf`).
@@ -642,9 +665,6 @@ pub(crate) fn solve_bodies(
                 }
                 // Both counts are bounded by `max_substeps + 1`, a handful.
                 body.impact_count = outcome.impacts.min(u16::MAX as u32) as u16;
-                if body.impact_count > 0 {
-                    hit.push(index as u32);
-                }
                 body.substeps = outcome.substeps.min(u16::MAX as u32) as u16;
                 if outcome.started_overlapping {
                     body.flags |= OVERLAPPING;
@@ -652,34 +672,54 @@ pub(crate) fn solve_bodies(
                 body.error = outcome.failure.map(CcdError::Toi);
             }
         }
+        // The bodies the write-back must visit, and those with impact messages. Every other
+        // body was clear before and is clear now, at its end pose: `record_end` already wrote
+        // its resolved pose, and its components stay as they are.
+        for (index, body) in chunk.iter().enumerate() {
+            if body.impact_count > 0 {
+                hit.push(index as u32);
+            }
+            if body.impact_count > 0
+                || body.error.is_some()
+                || body.flags & OVERLAPPING != 0
+                || body.flags & WAS_CLEAR == 0
+            {
+                visit.push(index as u32);
+            }
+        }
     });
     workspace.statics = statics;
     workspace.settings = Some(settings);
 }
 
-/// Puts a body in the error state, with a warning the first time this error shows.
-fn set_error(toi: &mut TimeOfImpact, entity: Entity, error: CcdError) {
-    if toi.error != Some(error) {
-        log::warn!("bevy_ccd: body {entity} not swept this step: {error:?}; left where it is");
-    }
-    *toi = TimeOfImpact {
+/// Puts a body in the error state, with a warning the first time this error shows. An error
+/// repeated from the last step is left unwritten (no change flagged).
+fn set_error(toi: &mut Mut<TimeOfImpact>, entity: Entity, error: CcdError) {
+    let outcome = TimeOfImpact {
         status: CcdStatus::Error,
         error: Some(error),
         ..Default::default()
     };
+    if **toi != outcome {
+        if toi.error != Some(error) {
+            log::warn!("bevy_ccd: body {entity} not swept this step: {error:?}; left where it is");
+        }
+        **toi = outcome;
+    }
 }
 
-/// [`super::CcdSystems::Resolve`]: write poses, velocities and outcomes back (in parallel:
-/// each body finds its entry through [`Sweep`]'s slot), then the impact messages (serially,
-/// in gathering order).
+/// [`super::CcdSystems::Resolve`]: write poses, velocities and outcomes back, then the impact
+/// messages, lane by lane in gathering order.
+///
+/// Only the bodies on the lanes' `visit` lists are looked up: those with impacts, errors or
+/// overlaps, and those whose outcome was not clear before. The others (most bodies, most
+/// steps) were clear and stay clear, at the end pose `record_end` already wrote as resolved.
 #[allow(clippy::type_complexity)]
 pub(crate) fn write_back(
-    config: Res<CcdConfig>,
     mut workspace: ResMut<CcdWorkspace>,
     ticks: SystemChangeTick,
     mut bodies: Query<
         (
-            Entity,
             &mut Transform,
             &mut Sweep,
             Option<&mut Velocity>,
@@ -692,94 +732,80 @@ pub(crate) fn write_back(
     let ws: &CcdWorkspace = &workspace;
     let lane_len = ws.lane_len.max(1);
     let other = |target: u32| ws.static_entities[target as usize];
-    let write = |(entity, mut transform, mut sweep, velocity, mut toi): (
-        Entity,
-        Mut<Transform>,
-        Mut<Sweep>,
-        Option<Mut<Velocity>>,
-        Mut<TimeOfImpact>,
-    )| {
-        let Some(body) = (sweep.slot as usize)
-            .checked_sub(1)
-            .and_then(|index| ws.bodies.get(index).map(|b| (index, b)))
-            .filter(|(_, b)| b.entity == entity)
-        else {
-            // Not swept this step: its `Transform` may have moved without a write-back.
-            if sweep.resolved_valid {
+    for (lane, first) in ws.lanes.iter().zip((0..ws.bodies.len()).step_by(lane_len)) {
+        for &index in &lane.visit {
+            let body = &ws.bodies[first + index as usize];
+            // The entity was gathered this step, so it is there: `Resolve` runs right after.
+            let Ok((mut transform, mut sweep, velocity, mut toi)) = bodies.get_mut(body.entity)
+            else {
+                continue;
+            };
+            let failed = matches!(body.error, Some(e) if !matches!(e, CcdError::Toi(_)));
+            if failed {
                 sweep.bypass_change_detection().resolved_valid = false;
+                set_error(
+                    &mut toi,
+                    body.entity,
+                    body.error.unwrap_or(CcdError::InvalidBodyData),
+                );
+                continue;
             }
-            return;
-        };
-        let (index, body) = body;
-        let failed = matches!(body.error, Some(e) if !matches!(e, CcdError::Toi(_)));
-        if failed {
-            if sweep.resolved_valid {
-                sweep.bypass_change_detection().resolved_valid = false;
+            // Without an impact or a failure the body ends where its user put it: that pose
+            // is left exactly as it is (the solver's went through the centre of mass and
+            // back, and a rebuilt rotation would not have the user's bits).
+            let (position, angle) = if body.impact_count == 0 && body.error.is_none() {
+                (sweep.end_position, sweep.end_angle)
+            } else {
+                (body.position, body.angle)
+            };
+            if position != sweep.end_position || angle != sweep.end_angle {
+                transform.translation.x = position.x;
+                transform.translation.y = position.y;
+                transform.rotation = Quat::from_rotation_z(angle);
             }
-            set_error(
-                &mut toi,
-                entity,
-                body.error.unwrap_or(CcdError::InvalidBodyData),
-            );
-            return;
-        }
-        // Without an impact or a failure the body ends where its user put it: that pose is
-        // left exactly as it is (the solver's went through the centre of mass and back, and
-        // a rebuilt rotation would not have the user's bits).
-        let (position, angle) = if body.impact_count == 0 && body.error.is_none() {
-            (sweep.end_position, sweep.end_angle)
-        } else {
-            (body.position, body.angle)
-        };
-        if position != sweep.end_position || angle != sweep.end_angle {
-            transform.translation.x = position.x;
-            transform.translation.y = position.y;
-            transform.rotation = Quat::from_rotation_z(angle);
-        }
-        let sweep = sweep.bypass_change_detection();
-        sweep.resolved_position = position;
-        sweep.resolved_angle = angle;
-        sweep.resolved_valid = true;
-        if let Some(mut v) = velocity
-            && body.flags & HAS_VELOCITY != 0
-            && (v.linear != body.velocity || v.angular != body.angular)
-        {
-            v.linear = body.velocity;
-            v.angular = body.angular;
-        }
-        let first_hit = (body.impact_count > 0).then(|| {
-            // Only for bodies that hit: the division finding the lane is not free.
-            let i = ws.lanes[index / lane_len].impacts[body.impacts as usize];
-            Impact {
-                other: other(i.target),
-                fraction: i.fraction,
-                point: i.point,
-                normal: i.normal,
+            let sweep = sweep.bypass_change_detection();
+            sweep.resolved_position = position;
+            sweep.resolved_angle = angle;
+            sweep.resolved_valid = true;
+            if let Some(mut v) = velocity
+                && body.flags & HAS_VELOCITY != 0
+                && (v.linear != body.velocity || v.angular != body.angular)
+            {
+                v.linear = body.velocity;
+                v.angular = body.angular;
             }
-        });
-        let status = if body.error.is_some() {
-            CcdStatus::Error
-        } else if body.flags & OVERLAPPING != 0 {
-            CcdStatus::Overlapping
-        } else if first_hit.is_some() {
-            CcdStatus::Hit
-        } else {
-            CcdStatus::Clear
-        };
-        let outcome = TimeOfImpact {
-            status,
-            first_hit,
-            error: body.error,
-            impacts: body.impact_count as u32,
-            substeps: body.substeps as u32,
-        };
-        // Most bodies are clear step after step: leave those untouched (no write, and no
-        // change flagged to the user's `Changed<TimeOfImpact>` filters).
-        if *toi != outcome {
-            *toi = outcome;
+            let first_hit = (body.impact_count > 0).then(|| {
+                let i = lane.impacts[body.impacts as usize];
+                Impact {
+                    other: other(i.target),
+                    fraction: i.fraction,
+                    point: i.point,
+                    normal: i.normal,
+                }
+            });
+            let status = if body.error.is_some() {
+                CcdStatus::Error
+            } else if body.flags & OVERLAPPING != 0 {
+                CcdStatus::Overlapping
+            } else if first_hit.is_some() {
+                CcdStatus::Hit
+            } else {
+                CcdStatus::Clear
+            };
+            let outcome = TimeOfImpact {
+                status,
+                first_hit,
+                error: body.error,
+                impacts: body.impact_count as u32,
+                substeps: body.substeps as u32,
+            };
+            // Leave an unchanged outcome untouched (no change flagged to the user's
+            // `Changed<TimeOfImpact>` filters).
+            if *toi != outcome {
+                *toi = outcome;
+            }
         }
-    };
-    for_each_body(&config, &mut bodies, write);
+    }
     // Lane by lane, in gathering order; each lane's `hit` list names its bodies with impacts,
     // so the others are not visited again.
     for (lane, first) in ws.lanes.iter().zip((0..ws.bodies.len()).step_by(lane_len)) {
