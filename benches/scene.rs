@@ -20,7 +20,8 @@
 //! ratio is also measured in *paired rounds* (the two sides alternate step by step for about
 //! two seconds and the medians of the two series are compared): 1 vs 2 threads, the plugin
 //! step vs its kernels, each peer with its CCD on vs off, and our clamp step against each
-//! peer's two worlds, all three in the same rounds.
+//! peer's two worlds, all three in the same rounds (in blocks of a few steps, so that each
+//! world runs warm).
 //!
 //! Our step times are taken without instrumentation; the phase split comes from a second
 //! copy of the scene with timestamp systems between the CCD sets.
@@ -649,33 +650,38 @@ fn paired_difference(off: &mut dyn Peer, on: &mut dyn Peer) -> (f64, usize) {
 }
 
 /// Our 1-thread clamp step over a peer's added CCD cost, all three measured in the same
-/// rounds (ours, then the peer's two worlds in alternating order), for about two seconds (at
-/// least 15 and at most 400 rounds): the median of our step times over the median of the
-/// peer's `on - off` differences. The ratio the targets name, free of the drift between a
-/// measurement of ours early in the run and the peer's minutes later.
+/// rounds, for about three seconds (at least 15 and at most 200 rounds). A round runs
+/// [`BLOCK`] steps of ours, then of the peer without CCD, then with it, each block's first
+/// step discarded (it runs on caches the other worlds just used): the medians of the blocks
+/// are compared round by round, so the machine's slow drift cancels while each world runs
+/// warm, as it does in a game that steps only one of them. Returns the median of our block
+/// medians over the median of the peer's `on - off` block differences, and the rounds.
 fn paired_ratio(ours: &mut Ours, off: &mut dyn Peer, on: &mut dyn Peer) -> (f64, usize) {
     let (mut mine, mut diffs) = (Vec::new(), Vec::new());
     let start = Instant::now();
-    while diffs.len() < 400 && (diffs.len() < 15 || start.elapsed().as_secs_f64() < 2.0) {
-        mine.push(ours.step()[0]);
-        let time = |peer: &mut dyn Peer| {
-            peer.reset();
-            let t = Instant::now();
-            peer.step();
-            t.elapsed().as_secs_f64()
+    let time = |peer: &mut dyn Peer| {
+        peer.reset();
+        let t = Instant::now();
+        peer.step();
+        t.elapsed().as_secs_f64()
+    };
+    while diffs.len() < 200 && (diffs.len() < 15 || start.elapsed().as_secs_f64() < 3.0) {
+        let block = |step: &mut dyn FnMut() -> f64| {
+            step();
+            let mut v: Vec<f64> = (1..BLOCK).map(|_| step()).collect();
+            median(&mut v)
         };
-        let (a, b) = if diffs.len() % 2 == 0 {
-            let a = time(off);
-            (a, time(on))
-        } else {
-            let b = time(on);
-            (time(off), b)
-        };
+        mine.push(block(&mut || ours.step()[0]));
+        let a = block(&mut || time(&mut *off));
+        let b = block(&mut || time(&mut *on));
         diffs.push(b - a);
     }
     let rounds = diffs.len();
     (median(&mut mine) / median(&mut diffs), rounds)
 }
+
+/// Steps per block of [`paired_ratio`], the first of which is discarded.
+const BLOCK: usize = 4;
 
 fn mode_name(r: Resolution) -> &'static str {
     match r {
@@ -1032,7 +1038,7 @@ fn main() {
         "\n### Peers: median full step (ms), CCD on vs off, 1 thread\n"
     )
     .unwrap();
-    writeln!(out, "| engine | N | M | step CCD off | step CCD on | CCD cost/body from the two medians (µs) | CCD cost/body, paired (µs) (rounds) | bodies its CCD moved | ours clamp 1t µs/body | ours clamp / peer (paired) | ours clamp / peer, three-way paired (rounds) | ours substep 1t µs/body | ours substep 2t µs/body |").unwrap();
+    writeln!(out, "| engine | N | M | step CCD off | step CCD on | CCD cost/body from the two medians (µs) | CCD cost/body, paired (µs) (rounds) | bodies its CCD moved | ours clamp 1t µs/body | ours clamp / peer (paired) | ours clamp / peer, block-paired (rounds) | ours substep 1t µs/body | ours substep 2t µs/body |").unwrap();
     writeln!(out, "|---|---|---|---|---|---|---|---|---|---|---|---|---|").unwrap();
     let peer_ms: &[usize] = if quick { &[1_000] } else { &[1_000, 100_000] };
     for &m in peer_ms {
