@@ -19,9 +19,7 @@
 //! The machine this runs on drifts by more than the targets' margins over minutes, so each
 //! ratio is also measured in *paired rounds* (the two sides alternate step by step for about
 //! two seconds and the medians of the two series are compared): 1 vs 2 threads, the plugin
-//! step vs its kernels, each peer with its CCD on vs off, and our clamp step against each
-//! peer's two worlds, all three in the same rounds (in blocks of a few steps, so that each
-//! world runs warm).
+//! step vs its kernels, and each peer with its CCD on vs off.
 //!
 //! Our step times are taken without instrumentation; the phase split comes from a second
 //! copy of the scene with timestamp systems between the CCD sets.
@@ -649,40 +647,6 @@ fn paired_difference(off: &mut dyn Peer, on: &mut dyn Peer) -> (f64, usize) {
     (median(&mut diffs), rounds)
 }
 
-/// Our 1-thread clamp step over a peer's added CCD cost, all three measured in the same
-/// rounds, for about three seconds (at least 15 and at most 200 rounds). A round runs
-/// [`BLOCK`] steps of ours, then of the peer without CCD, then with it, each block's first
-/// step discarded (it runs on caches the other worlds just used): the medians of the blocks
-/// are compared round by round, so the machine's slow drift cancels while each world runs
-/// warm, as it does in a game that steps only one of them. Returns the median of our block
-/// medians over the median of the peer's `on - off` block differences, and the rounds.
-fn paired_ratio(ours: &mut Ours, off: &mut dyn Peer, on: &mut dyn Peer) -> (f64, usize) {
-    let (mut mine, mut diffs) = (Vec::new(), Vec::new());
-    let start = Instant::now();
-    let time = |peer: &mut dyn Peer| {
-        peer.reset();
-        let t = Instant::now();
-        peer.step();
-        t.elapsed().as_secs_f64()
-    };
-    while diffs.len() < 200 && (diffs.len() < 15 || start.elapsed().as_secs_f64() < 3.0) {
-        let block = |step: &mut dyn FnMut() -> f64| {
-            step();
-            let mut v: Vec<f64> = (1..BLOCK).map(|_| step()).collect();
-            median(&mut v)
-        };
-        mine.push(block(&mut || ours.step()[0]));
-        let a = block(&mut || time(&mut *off));
-        let b = block(&mut || time(&mut *on));
-        diffs.push(b - a);
-    }
-    let rounds = diffs.len();
-    (median(&mut mine) / median(&mut diffs), rounds)
-}
-
-/// Steps per block of [`paired_ratio`], the first of which is discarded.
-const BLOCK: usize = 4;
-
 fn mode_name(r: Resolution) -> &'static str {
     match r {
         Resolution::Clamp => "clamp",
@@ -1038,16 +1002,12 @@ fn main() {
         "\n### Peers: median full step (ms), CCD on vs off, 1 thread\n"
     )
     .unwrap();
-    writeln!(out, "| engine | N | M | step CCD off | step CCD on | CCD cost/body from the two medians (µs) | CCD cost/body, paired (µs) (rounds) | bodies its CCD moved | ours clamp 1t µs/body | ours clamp / peer (paired) | ours clamp / peer, block-paired (rounds) | ours substep 1t µs/body | ours substep 2t µs/body |").unwrap();
-    writeln!(out, "|---|---|---|---|---|---|---|---|---|---|---|---|---|").unwrap();
+    writeln!(out, "| engine | N | M | step CCD off | step CCD on | CCD cost/body from the two medians (µs) | CCD cost/body, paired (µs) (rounds) | bodies its CCD moved | ours clamp 1t µs/body | ours clamp / peer (paired) | ours substep 1t µs/body | ours substep 2t µs/body |").unwrap();
+    writeln!(out, "|---|---|---|---|---|---|---|---|---|---|---|---|").unwrap();
     let peer_ms: &[usize] = if quick { &[1_000] } else { &[1_000, 100_000] };
     for &m in peer_ms {
         for &n in &[1_000usize, 10_000] {
             let lvl = level(n, m);
-            // Ours again, clamp on one thread, to step in the same rounds as each peer.
-            let mut mine = Ours::new(&lvl, false);
-            mine.configure(Resolution::Clamp, false);
-            mine.step();
             for engine in ["box2d", "box2d bullets", "rapier", "rapier ccd_enabled"] {
                 let mut med = [0.0; 2];
                 let mut ends: [Vec<Vec2>; 2] = Default::default();
@@ -1091,12 +1051,9 @@ fn main() {
                 // The added cost from paired rounds: the two worlds step alternately from the
                 // same reset state and the median of the per-round differences is taken, which
                 // cancels the machine's slow drifts that two separate medians keep.
-                let ((paired, rounds), (three, three_rounds)) = {
+                let (paired, rounds) = {
                     let (off, on) = worlds.split_at_mut(1);
-                    (
-                        paired_difference(off[0].as_mut(), on[0].as_mut()),
-                        paired_ratio(&mut mine, off[0].as_mut(), on[0].as_mut()),
-                    )
+                    paired_difference(off[0].as_mut(), on[0].as_mut())
                 };
                 // Evidence that the peer's CCD did work in the timed step: bodies whose end
                 // position it changed by more than a millimetre.
@@ -1123,7 +1080,7 @@ fn main() {
                 };
                 writeln!(
                     out,
-                    "| {engine} | {n} | {m} | {:.3} | {:.3} | {per_separate:.3} | {per:.3} ({rounds}) | {changed} | {oc:.3} | {ratio} | {three:.2} ({three_rounds}) | {os:.3} | {os2:.3} |",
+                    "| {engine} | {n} | {m} | {:.3} | {:.3} | {per_separate:.3} | {per:.3} ({rounds}) | {changed} | {oc:.3} | {ratio} | {os:.3} | {os2:.3} |",
                     med[0] * 1e3,
                     med[1] * 1e3,
                 )
