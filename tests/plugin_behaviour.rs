@@ -1795,3 +1795,21 @@ fn every_change_of_outcome_is_written_and_only_those_are_flagged() {
         }
     }
 }
+
+/// A `TimeOfImpact` replaced by the user (it is the plugin's to write, but nothing stops an
+/// insertion) is rewritten at the next step, although the body stayed clear.
+#[test]
+fn an_outcome_replaced_by_the_user_is_rewritten() {
+    let mut app = app_with(Resolution::default(), Vec2::ZERO, false);
+    let ball = spawn_ball(&mut app, 0.1, Vec2::new(-5.0, 0.0), Vec2::ZERO);
+    app.world_mut()
+        .entity_mut(ball)
+        .insert(Push(Vec2::new(0.1, 0.0)));
+    step(&mut app);
+    assert_eq!(toi(&app, ball).status, CcdStatus::Clear);
+    app.world_mut()
+        .entity_mut(ball)
+        .insert(TimeOfImpact::default());
+    step(&mut app);
+    assert_eq!(toi(&app, ball).status, CcdStatus::Clear, "rewritten");
+}
