@@ -24,7 +24,7 @@ use glam::Vec2;
 use super::bvh::Bvh;
 use super::constants::{separation_tolerance, target_separation};
 use super::gjk::{DistanceInput, SimplexCache, shape_distance};
-use super::math::{Pose, cross, left_perp, right_perp};
+use super::math::{Pose, Rot, cross, left_perp, right_perp};
 use super::proxy::ShapeProxy;
 use super::shape::Aabb;
 use super::sweep::Sweep;
@@ -73,6 +73,8 @@ pub struct StaticSet {
     items: Vec<StaticItem>,
     /// Per target, what every pair test needs of it (index as `items`).
     frames: Vec<TargetFrame>,
+    /// Per target, what ordering a body's candidates needs of it (index as `items`).
+    keys: Vec<TargetKey>,
     bvh: Bvh,
     scratch: Vec<(u32, Aabb)>,
 }
@@ -84,6 +86,13 @@ impl StaticSet {
         self.items.extend(items);
         self.frames.clear();
         self.frames.extend(self.items.iter().map(TargetFrame::new));
+        self.keys.clear();
+        self.keys.extend(
+            self.items
+                .iter()
+                .zip(&self.frames)
+                .map(|(item, frame)| TargetKey::new(item, frame)),
+        );
         self.scratch.clear();
         for (i, item) in self.items.iter().enumerate() {
             let pose = Pose::new(item.position, item.angle);
@@ -127,6 +136,32 @@ struct TargetFrame {
     /// The core is exactly that box: its points are the box's corners (a rectangle in its
     /// frame, a segment along an axis, a point), so distances to it have a closed form.
     core_is_box: bool,
+}
+
+/// What [`reach_interval`] needs of a target, packed in 36 bytes: every candidate of the broad
+/// phase goes through that test and most stop there, so this is what the solve reads of most
+/// targets. With 100,000 statics the targets are far apart in memory and each read of
+/// [`StaticItem`] and [`TargetFrame`] (three cache lines) is a miss; this one line is read
+/// instead.
+#[derive(Clone, Copy, Debug)]
+struct TargetKey {
+    position: Vec2,
+    rotation: Rot,
+    /// Bounds of the core points in the target's frame ([`TargetFrame::core`]).
+    core: Aabb,
+    /// The target's rounding radius (m).
+    radius: f32,
+}
+
+impl TargetKey {
+    fn new(item: &StaticItem, frame: &TargetFrame) -> Self {
+        Self {
+            position: item.position,
+            rotation: frame.toi.rotation(),
+            core: frame.core,
+            radius: item.proxy.radius,
+        }
+    }
 }
 
 impl TargetFrame {
@@ -261,7 +296,7 @@ fn out_of_reach(
     frame: &TargetFrame,
     slop: f32,
 ) -> bool {
-    let margin = hit_margin(proxy, target, slop);
+    let margin = hit_margin(proxy, target.proxy.radius, slop);
     // Over `[t_min, t_max]` the centre runs from `c(t_min)` to `c(t_max)`.
     let start = sweep.center_at(t_min);
     let end = sweep.center_at(t_max);
@@ -340,13 +375,12 @@ fn segment_box_distance(p0: Vec2, p1: Vec2, core: Aabb) -> f32 {
 /// The core distance within which a pair can be hit, plus one slop for rounding: a body whose
 /// core stays farther than this from the target's core is never hit by it.
 #[inline]
-fn hit_margin(proxy: &ShapeProxy, target: &StaticItem, slop: f32) -> f32 {
+fn hit_margin(proxy: &ShapeProxy, target_radius: f32, slop: f32) -> f32 {
     // As `time_of_impact` sets it: `target = max(total radius + slop, 2 tolerance)`, and a
     // hit is reported within `target + tolerance`.
     let tolerance = separation_tolerance(slop);
-    let hit_range = (proxy.radius + target.proxy.radius + target_separation(slop))
-        .max(2.0 * tolerance)
-        + tolerance;
+    let hit_range =
+        (proxy.radius + target_radius + target_separation(slop)).max(2.0 * tolerance) + tolerance;
     hit_range + slop
 }
 
@@ -362,16 +396,15 @@ fn reach_interval(
     reach: f32,
     proxy: &ShapeProxy,
     sweep: &Sweep,
-    target: &StaticItem,
-    frame: &TargetFrame,
+    target: &TargetKey,
     slop: f32,
 ) -> Option<(f32, f32)> {
-    let grow = reach + hit_margin(proxy, target, slop);
-    let q = frame.toi.rotation();
+    let grow = reach + hit_margin(proxy, target.radius, slop);
+    let q = target.rotation;
     let origin = q.inv_rotate(sweep.c0 - target.position);
     let path = q.inv_rotate(sweep.linear_motion());
-    let lo = frame.core.min - grow;
-    let hi = frame.core.max + grow;
+    let lo = target.core.min - grow;
+    let hi = target.core.max + grow;
     let (mut enter, mut leave) = (0.0f32, 1.0f32);
     for axis in 0..2 {
         let (o, d) = (origin[axis], path[axis]);
@@ -833,15 +866,10 @@ pub fn solve_body(
         let short = list.len() <= ORDERED_TARGETS;
         if short {
             for &index in list {
-                let (Some(target), Some(frame)) = (
-                    statics.items.get(index as usize),
-                    statics.frames.get(index as usize),
-                ) else {
+                let Some(key) = statics.keys.get(index as usize) else {
                     continue;
                 };
-                if let Some(window) =
-                    reach_interval(sweep_reach, &body.proxy, &sweep, target, frame, slop)
-                {
+                if let Some(window) = reach_interval(sweep_reach, &body.proxy, &sweep, key, slop) {
                     // Insertion by (fraction, index): deterministic, ties in index order.
                     let mut k = ordered;
                     while k > 0 && order[k - 1].0.0 > window.0 {
@@ -1148,7 +1176,13 @@ mod tests {
             let sweep = Sweep::new(Vec2::ZERO, c0, a0, c1, a0 + rng.range(-12.6, 12.6));
             let reach = proxy.max_distance_from(Vec2::ZERO);
             let frame = TargetFrame::new(&target);
-            let window = reach_interval(reach, &proxy, &sweep, &target, &frame, slop);
+            let window = reach_interval(
+                reach,
+                &proxy,
+                &sweep,
+                &TargetKey::new(&target, &frame),
+                slop,
+            );
             let mut input = pair_input(proxy, sweep, &target, slop);
             let out = time_of_impact(&input);
             let Some((enter, leave)) = window else {
