@@ -24,15 +24,21 @@ use crate::geometry::{
 ///
 /// let mut world = World::new();
 /// // A fast ball, swept every step.
-/// world.spawn((Collider::circle(0.1).unwrap(), CcdEnabled::default(), Transform::default()));
+/// let ball = world
+///     .spawn((Collider::circle(0.1).unwrap(), CcdEnabled::default(), Transform::default()))
+///     .id();
 /// // A wall.
 /// world.spawn((Collider::rectangle(0.005, 5.0).unwrap(), StaticCollider, Transform::default()));
+/// // Colliders are immutable: a new shape is a new collider, inserted.
+/// world.entity_mut(ball).insert(Collider::circle(0.2).unwrap());
+/// assert_eq!(world.get::<Collider>(ball), Some(&Collider::circle(0.2).unwrap()));
 /// ```
 ///
 /// A collider is *immutable*: to reshape one, insert a new `Collider` on the entity. The plugin
 /// learns of every insertion and removal from the component's hooks, so it rebuilds its static
 /// hierarchy only when a static's shape really changed, without scanning every static each step
-/// (a 100,000-static level would cost about 0.1 ms a step to scan).
+/// (a 100,000-static level would cost about 0.1 ms a step to scan), and keeps what the broad
+/// phase needs of a body's shape in its [`Sweep`].
 #[derive(Component, Reflect, Clone, Copy, Debug, PartialEq)]
 #[component(immutable, on_insert = collider_inserted, on_remove = static_shape_changed)]
 #[reflect(opaque)]
