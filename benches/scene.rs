@@ -13,13 +13,15 @@
 //!                                   # SCENE_PROFILE_BARE=1: also the step without timestamps;
 //!                                   # SCENE_PROFILE_PARALLEL=1: on the pool; SCENE_PAIR_STATS=1:
 //!                                   # time-of-impact statistics per pair class first;
-//!                                   # SCENE_SPEEDUP=1: three paired 1-vs-2-thread ratios)
+//!                                   # SCENE_SPEEDUP=1: three paired 1-vs-2-thread ratios,
+//!                                   # step by step and in blocks)
 //! ```
 //!
 //! The machine this runs on drifts by more than the targets' margins over minutes, so each
 //! ratio is also measured in *paired rounds* (the two sides alternate step by step for about
 //! two seconds and the medians of the two series are compared): 1 vs 2 threads, the plugin
-//! step vs its kernels, and each peer with its CCD on vs off.
+//! step vs its kernels, and each peer with its CCD on vs off. 1 vs 2 threads is also paired
+//! in blocks of 6 steps per side, the first of each dropped (see `paired_speedup`).
 //!
 //! Our step times are taken without instrumentation; the phase split comes from a second
 //! copy of the scene with timestamp systems between the CCD sets.
@@ -605,20 +607,38 @@ fn bench_custom(
 }
 
 /// Our 1-thread step time over our 2-thread step time for `mode`, from rounds in which the two
-/// alternate step by step for about two seconds (at least 15 and at most 400 rounds): the
-/// ratio of the two medians. Also returns the number of rounds.
-fn paired_speedup(app: &mut Ours, mode: Resolution) -> (f64, usize) {
+/// alternate for about two seconds (at least 15 and at most 400 steps each): the ratio of the
+/// two medians. Also returns the number of steps each side kept.
+///
+/// `block` steps per side and round. With 1, the two alternate step by step: every step then
+/// starts on data the other configuration left (the bodies' components and the lanes in one
+/// core's cache after a 1-thread step, split over two after a 2-thread one), which a game,
+/// running one configuration, never pays. With more, the first step of each block pays that
+/// switch and is dropped, and the others are steady; blocks of 6 (about 15-20 ms at 10,000
+/// bodies) still alternate fast enough to cancel the machine's drift. Measured at 10k × 1k,
+/// clamp: the first 2-thread step of a block is 4-8 % slower than the rest, the first
+/// 1-thread step 1-2 % faster.
+fn paired_speedup(app: &mut Ours, mode: Resolution, block: usize) -> (f64, usize) {
     let (mut one, mut two) = (Vec::new(), Vec::new());
     let start = Instant::now();
+    let keep = |k: usize| block == 1 || k > 0;
     while one.len() < 400 && (one.len() < 15 || start.elapsed().as_secs_f64() < 2.0) {
-        app.configure(mode, false);
-        one.push(app.step()[0]);
-        app.configure(mode, true);
-        two.push(app.step()[0]);
+        for (parallel, out) in [(false, &mut one), (true, &mut two)] {
+            app.configure(mode, parallel);
+            for k in 0..block {
+                let t = app.step()[0];
+                if keep(k) {
+                    out.push(t);
+                }
+            }
+        }
     }
     let rounds = one.len();
     (median(&mut one) / median(&mut two), rounds)
 }
+
+/// Steps per side and round of [`paired_speedup`] in blocks (the first of each dropped).
+const SPEEDUP_BLOCK: usize = 6;
 
 /// Seconds a peer's CCD adds to one step: the median over rounds of `on - off`, the two
 /// worlds stepping alternately from their reset state, for about two seconds (at least 15
@@ -739,8 +759,11 @@ fn profile(mode: &str) {
     let mut ours = Ours::new(&lvl, true);
     if std::env::var_os("SCENE_SPEEDUP").is_some() {
         for _ in 0..3 {
-            let (speedup, rounds) = paired_speedup(&mut ours, resolution);
-            println!("paired speed-up {speedup:.3} ({rounds} rounds)");
+            let (speedup, rounds) = paired_speedup(&mut ours, resolution, 1);
+            let (blocks, kept) = paired_speedup(&mut ours, resolution, SPEEDUP_BLOCK);
+            println!(
+                "paired speed-up {speedup:.3} ({rounds} rounds), in blocks {blocks:.3} ({kept} steps)"
+            );
         }
         return;
     }
@@ -798,7 +821,7 @@ fn main() {
     let mut memory = String::new();
     let mut kernels_out = String::new();
     // (n, m, mode) -> (1-thread over 2-thread step time from paired rounds, rounds)
-    let mut speedups: BTreeMap<(usize, usize, &str), (f64, usize)> = BTreeMap::new();
+    let mut speedups: BTreeMap<(usize, usize, &str), (f64, usize, f64, usize)> = BTreeMap::new();
     for &m in ms {
         for &n in ns {
             let t = Instant::now();
@@ -856,8 +879,9 @@ fn main() {
                         .unwrap();
                     }
                 }
-                let (speedup, rounds) = paired_speedup(&mut app, mode);
-                speedups.insert((n, m, mode_name(mode)), (speedup, rounds));
+                let (speedup, rounds) = paired_speedup(&mut app, mode, 1);
+                let (blocks, kept) = paired_speedup(&mut app, mode, SPEEDUP_BLOCK);
+                speedups.insert((n, m, mode_name(mode)), (speedup, rounds, blocks, kept));
             }
             {
                 let w = app.app.world();
@@ -938,19 +962,19 @@ fn main() {
     .unwrap();
     writeln!(
         out,
-        "| N | M | mode | 1 thread ms | 2 threads ms | 1t µs/body | 2t µs/body | speed-up | speed-up, paired (rounds) |"
+        "| N | M | mode | 1 thread ms | 2 threads ms | 1t µs/body | 2t µs/body | speed-up | speed-up, paired (rounds) | speed-up, paired in blocks (steps) |"
     )
     .unwrap();
-    writeln!(out, "|---|---|---|---|---|---|---|---|---|").unwrap();
+    writeln!(out, "|---|---|---|---|---|---|---|---|---|---|").unwrap();
     for &m in ms {
         for &n in ns {
             for mode in modes {
                 let a = ours[&(n, m, mode_name(mode), 1)];
                 let b = ours[&(n, m, mode_name(mode), threads)];
-                let (su, rounds) = speedups[&(n, m, mode_name(mode))];
+                let (su, rounds, blocks, kept) = speedups[&(n, m, mode_name(mode))];
                 writeln!(
                     out,
-                    "| {n} | {m} | {} | {:.3} | {:.3} | {:.3} | {:.3} | {:.2}x | {su:.2}x ({rounds}) |",
+                    "| {n} | {m} | {} | {:.3} | {:.3} | {:.3} | {:.3} | {:.2}x | {su:.2}x ({rounds}) | {blocks:.2}x ({kept}) |",
                     mode_name(mode),
                     a * 1e3,
                     b * 1e3,
