@@ -644,8 +644,8 @@ fn bench_custom(
 /// running one configuration, never pays. With more, the first step of each block pays that
 /// switch and is dropped, and the others are steady; blocks of 6 (about 15-20 ms at 10,000
 /// bodies) still alternate fast enough to cancel the machine's drift. Measured at 10k × 1k,
-/// clamp: the first 2-thread step of a block is 4-8 % slower than the rest, the first
-/// 1-thread step 1-2 % faster.
+/// clamp: the first 2-thread step of a block is 3-8 % slower than the rest, the first
+/// 1-thread step 0.3-2 % faster.
 fn paired_speedup(app: &mut Ours, mode: Resolution, block: usize) -> (f64, usize) {
     let (mut one, mut two) = (Vec::new(), Vec::new());
     let start = Instant::now();
