@@ -87,8 +87,9 @@ pub struct StaticSet {
 impl StaticSet {
     /// Whether [`Self::touch`] pays: the per-target records (152 bytes a target: key 36,
     /// frame 32 and shape 84) outgrow a core's L2 cache (1 MiB on the bench machine, shared
-    /// with the step's own data) from a few thousand targets on. Below that they stay cached from step to step and touching them
-    /// first is only extra work (measured +1 % at 1,000 targets).
+    /// with the step's own data) from a few thousand targets on. Below that they stay cached
+    /// from step to step and touching them first is only extra work (measured +1 % at 1,000
+    /// targets).
     pub(crate) fn worth_touching(&self) -> bool {
         self.items.len() >= TOUCH_MIN_TARGETS
     }
