@@ -99,9 +99,10 @@ fn step_level(resolution: Resolution, parallel: bool) -> (Vec<Outcome>, Vec<Outc
             &mut scratch,
             &mut impacts,
         );
-        // The plugin leaves a body that hit nothing exactly where its user put it.
+        // The plugin leaves a body that hit nothing exactly where its user put it (its
+        // `Transform` untouched, the rotation bits the user's).
         let (position, rotation) = if out.impacts == 0 && out.failure.is_none() {
-            (sweep.end_position, Quat::from_rotation_z(sweep.end_angle))
+            (sweep.end_position, transform.rotation)
         } else {
             (out.position, Quat::from_rotation_z(out.angle))
         };
@@ -118,11 +119,7 @@ fn step_level(resolution: Resolution, parallel: bool) -> (Vec<Outcome>, Vec<Outc
         };
         direct.push((
             position,
-            if out.impacts == 0 && out.failure.is_none() {
-                transform.rotation
-            } else {
-                rotation
-            },
+            rotation,
             TimeOfImpact {
                 status,
                 first_hit: first.map(|i| Impact {
