@@ -186,6 +186,11 @@ pub struct CcdConfig {
     pub timestep: Option<f32>,
     /// Spread bodies over the compute task pool. Results are identical either way. The default
     /// is `true`.
+    ///
+    /// Like Bevy's own `par_iter`, this needs a compute pool of two threads or more. Bevy's
+    /// default pools give a 2-core machine one compute thread (one each for IO and async
+    /// compute, the compute pool what is left, at least one), so there the plugin runs on one
+    /// thread unless `TaskPoolPlugin` is told otherwise (`compute.min_threads: 2`).
     pub parallel: bool,
 }
 
