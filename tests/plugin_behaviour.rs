@@ -1813,3 +1813,52 @@ fn an_outcome_replaced_by_the_user_is_rewritten() {
     step(&mut app);
     assert_eq!(toi(&app, ball).status, CcdStatus::Clear, "rewritten");
 }
+
+/// A teleport made after [`CcdSystems::TimeOfImpact`] (which writes the components back) and
+/// before [`CcdSystems::Resolve`] is where the next step starts: the plugin takes a body's
+/// start from its last write-back only when nothing changed its `Transform` after it.
+#[test]
+fn a_teleport_after_the_write_back_starts_the_next_step() {
+    #[derive(Resource, Default)]
+    struct Teleport(Option<(Entity, Vec2)>);
+    fn teleport(mut order: ResMut<Teleport>, mut bodies: Query<&mut Transform>) {
+        if let Some((e, p)) = order.0.take() {
+            bodies.get_mut(e).expect("body").translation = p.extend(0.0);
+        }
+    }
+    for parallel in [false, true] {
+        let mut app = app_with(Resolution::default(), Vec2::ZERO, true);
+        app.insert_resource(CcdConfig {
+            parallel,
+            ..Default::default()
+        })
+        .init_resource::<Teleport>()
+        .add_systems(
+            FixedPostUpdate,
+            teleport
+                .after(CcdSystems::TimeOfImpact)
+                .before(CcdSystems::Resolve),
+        );
+        // One ball that hits a wall (written back by the solve) and one that flies free (not
+        // visited by the write-back at all).
+        spawn_wall(&mut app, Vec2::new(1.0, 0.0), 0.05, 1.0);
+        let hitting = spawn_ball(&mut app, 0.1, Vec2::ZERO, Vec2::new(60.0, 0.0));
+        let free = spawn_ball(&mut app, 0.1, Vec2::new(0.0, 5.0), Vec2::new(10.0, 0.0));
+        step(&mut app);
+        assert_eq!(toi(&app, hitting).status, CcdStatus::Hit);
+        for (body, target) in [
+            (hitting, Vec2::new(-20.0, 3.0)),
+            (free, Vec2::new(30.0, -7.0)),
+        ] {
+            app.world_mut().resource_mut::<Teleport>().0 = Some((body, target));
+            step(&mut app);
+            assert_eq!(position(&app, body), target, "parallel {parallel}");
+            step(&mut app);
+            let sweep = *app.world().get::<Sweep>(body).expect("body");
+            assert_eq!(
+                sweep.start_position, target,
+                "parallel {parallel}: the next step did not start at the teleport"
+            );
+        }
+    }
+}

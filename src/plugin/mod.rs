@@ -33,9 +33,10 @@ use crate::geometry::LINEAR_SLOP;
 /// FixedUpdate      your movement systems     move `Transform` (and keep `Velocity`)
 /// FixedPostUpdate  CcdSystems::RecordEnd     end pose, unwrapped angle
 ///                  CcdSystems::BroadPhase    static hierarchy upkeep, swept-bound queries
-///                  CcdSystems::TimeOfImpact  bilateral advancement per body, in parallel
-///                  CcdSystems::Resolve       clamp or sub-step; write `Transform`,
-///                                            `Velocity`, `TimeOfImpact`, `CcdImpact`
+///                  CcdSystems::TimeOfImpact  bilateral advancement per body, in parallel,
+///                                            clamp or sub-step; write `Transform`,
+///                                            `Velocity`, `TimeOfImpact`
+///                  CcdSystems::Resolve       send `CcdImpact` messages
 /// ```
 ///
 /// Put your movement systems in `FixedUpdate` (or anywhere before
@@ -109,9 +110,7 @@ impl Plugin for CcdPlugin {
             self.schedule,
             (
                 systems::record_end.in_set(CcdSystems::RecordEnd),
-                (systems::update_statics, systems::gather_bodies)
-                    .chain()
-                    .in_set(CcdSystems::BroadPhase),
+                systems::gather_bodies.in_set(CcdSystems::BroadPhase),
                 systems::solve_bodies.in_set(CcdSystems::TimeOfImpact),
                 systems::write_back.in_set(CcdSystems::Resolve),
             ),
@@ -131,9 +130,12 @@ pub enum CcdSystems {
     RecordEnd,
     /// Keeps the static hierarchy current and gathers candidate targets per body.
     BroadPhase,
-    /// Runs the time of impact and the resolution of every body (in parallel).
+    /// Runs the time of impact and the resolution of every body (in parallel), and writes
+    /// their poses, velocities and outcomes ([`TimeOfImpact`]) back to the world: on the
+    /// pool, each finished lane of bodies is written while the others are still solved.
     TimeOfImpact,
-    /// Writes poses, velocities, outcomes and impact messages back to the world.
+    /// Sends the impact messages ([`CcdImpact`]). Systems ordered after it see every
+    /// component and message of the step.
     Resolve,
 }
 
