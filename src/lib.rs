@@ -41,9 +41,9 @@ pub use plugin::testing;
 pub mod prelude {
     pub use crate::geometry::{Aabb, ShapeError};
     pub use crate::plugin::{
-        BodyMass, CcdConfig, CcdEnabled, CcdError, CcdImpact, CcdPlugin, CcdStatus, CcdSystems,
-        Collider, Friction, Impact, Resolution, Restitution, StaticCollider, Sweep, TimeOfImpact,
-        Velocity,
+        BodyMass, CcdConfig, CcdEnabled, CcdError, CcdImpact, CcdPlugin, CcdSchedule,
+        CcdStartSchedule, CcdStatus, CcdSystems, Collider, Friction, Impact, Resolution,
+        Restitution, StaticCollider, Sweep, TimeOfImpact, Velocity,
     };
     pub use glam::Vec2;
 }

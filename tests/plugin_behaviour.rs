@@ -1834,7 +1834,7 @@ fn a_teleport_after_the_write_back_starts_the_next_step() {
         })
         .init_resource::<Teleport>()
         .add_systems(
-            FixedPostUpdate,
+            CcdSchedule,
             teleport
                 .after(CcdSystems::TimeOfImpact)
                 .before(CcdSystems::Resolve),
@@ -1860,5 +1860,71 @@ fn a_teleport_after_the_write_back_starts_the_next_step() {
                 "parallel {parallel}: the next step did not start at the teleport"
             );
         }
+    }
+}
+
+#[derive(Resource, Default)]
+struct Seen(Vec<(&'static str, CcdStatus, usize)>);
+
+fn probe<const K: usize>(
+    workspace: Res<CcdWorkspace>,
+    outcomes: Query<&TimeOfImpact>,
+    mut seen: ResMut<Seen>,
+) {
+    const NAMES: [&str; 4] = [
+        "before",
+        "after broad phase",
+        "after time of impact",
+        "after",
+    ];
+    let status = outcomes.single().map_or(CcdStatus::Error, |t| t.status);
+    seen.0.push((NAMES[K], status, workspace.body_count()));
+}
+
+/// Systems ordered against the phase sets in the plugin's schedule run before or after the
+/// whole step; systems added to `CcdSchedule` run between two phases. On one thread and on
+/// the pool (where `CcdSchedule` runs on a pool thread).
+#[test]
+fn user_systems_run_around_the_step_and_between_its_phases() {
+    for parallel in [false, true] {
+        let mut app = app_with(Resolution::Clamp, Vec2::ZERO, true);
+        app.insert_resource(CcdConfig {
+            resolution: Resolution::Clamp,
+            parallel,
+            ..Default::default()
+        })
+        .init_resource::<Seen>()
+        .add_systems(
+            FixedPostUpdate,
+            (
+                probe::<0>.before(CcdSystems::RecordEnd),
+                probe::<3>.after(CcdSystems::Resolve),
+            ),
+        )
+        .add_systems(
+            CcdSchedule,
+            (
+                probe::<1>
+                    .after(CcdSystems::BroadPhase)
+                    .before(CcdSystems::TimeOfImpact),
+                probe::<2>
+                    .after(CcdSystems::TimeOfImpact)
+                    .before(CcdSystems::Resolve),
+            ),
+        );
+        // One ball that hits the wall in its first step.
+        spawn_wall(&mut app, Vec2::new(3.005, 0.0), 0.005, 1.0);
+        spawn_ball(&mut app, 0.1, Vec2::ZERO, Vec2::new(300.0, 0.0));
+        step(&mut app);
+        assert_eq!(
+            app.world().resource::<Seen>().0,
+            vec![
+                ("before", CcdStatus::Idle, 0),
+                ("after broad phase", CcdStatus::Idle, 1),
+                ("after time of impact", CcdStatus::Hit, 1),
+                ("after", CcdStatus::Hit, 1),
+            ],
+            "parallel {parallel}"
+        );
     }
 }

@@ -10,7 +10,7 @@ use bevy_app::prelude::*;
 use bevy_app::{FixedFirst, FixedPostUpdate};
 use bevy_ecs::intern::Interned;
 use bevy_ecs::prelude::*;
-use bevy_ecs::schedule::ScheduleLabel;
+use bevy_ecs::schedule::{ScheduleLabel, SingleThreadedExecutor};
 use bevy_reflect::prelude::*;
 use bevy_time::{Fixed, Time};
 use glam::Vec2;
@@ -31,7 +31,8 @@ use crate::geometry::LINEAR_SLOP;
 /// FixedFirst       CcdSystems::RecordStart   start pose of every CCD body (a teleport made
 ///                                            between steps is therefore never swept)
 /// FixedUpdate      your movement systems     move `Transform` (and keep `Velocity`)
-/// FixedPostUpdate  CcdSystems::RecordEnd     end pose, unwrapped angle
+/// FixedPostUpdate  the CcdSchedule:
+///                  CcdSystems::RecordEnd     end pose, unwrapped angle
 ///                  CcdSystems::BroadPhase    static hierarchy upkeep, swept-bound queries
 ///                  CcdSystems::TimeOfImpact  bilateral advancement per body, in parallel,
 ///                                            clamp or sub-step; write `Transform`,
@@ -43,13 +44,32 @@ use crate::geometry::LINEAR_SLOP;
 /// [`CcdSystems::RecordEnd`]). Bodies are root entities: their `Transform` is their world
 /// pose (x, y and the rotation about z; z and scale are left alone).
 ///
+/// # Schedules
+///
+/// As Avian runs its `PhysicsSchedule`, the phases run in schedules of their own,
+/// [`CcdStartSchedule`] (`RecordStart`) and [`CcdSchedule`] (the other four, chained), each
+/// run by one exclusive system of the plugin's schedules, on the single-threaded executor:
+/// each phase spreads its own work over the compute task pool. In the plugin's schedules
+/// that exclusive system belongs to every phase's set, so `.before(CcdSystems::RecordEnd)` and
+/// `.after(CcdSystems::Resolve)` order a system of yours before or after the whole step
+/// there; to run one between two phases, add it to [`CcdSchedule`].
+///
+/// Why: on the multi-threaded executor each system of a phase was handed to a pool thread,
+/// and its data moved to that core's cache; on the 2-core VM of `BENCHMARKS.md` (seventh
+/// session) a 1,000-body step on one thread took 0.30 ms run this way against 0.42-0.44 ms
+/// handed out (full runs the same hour), and a 10,000-body step 4.0 against 4.3 ms on one
+/// thread and 2.17 against 2.26 ms on two (medians of six alternating runs). With
+/// [`CcdConfig::parallel`] the schedule runs on one pool thread, with the others as its
+/// helpers, while the calling thread waits, so the phases never have more threads than the
+/// pool. The price: systems of yours in the same schedule do not run beside the CCD step.
+///
 /// ```
 /// use bevy_app::prelude::*;
 /// use bevy_ccd::prelude::*;
 ///
 /// let mut app = App::new();
 /// app.add_plugins((bevy_time::TimePlugin, CcdPlugin::default()));
-/// // Or run the CCD phases in another pair of schedules:
+/// // Or run the CCD schedules from another pair of schedules:
 /// let _custom = CcdPlugin::new(bevy_app::FixedFirst, bevy_app::FixedPostUpdate);
 /// ```
 pub struct CcdPlugin {
@@ -76,6 +96,75 @@ impl Default for CcdPlugin {
     }
 }
 
+/// The schedule [`CcdPlugin`] runs [`CcdSystems::RecordStart`] in, from its start schedule.
+///
+/// On the single-threaded executor; with [`CcdConfig::parallel`] it runs on a thread of the
+/// compute task pool, so a system added to it must not need the main thread.
+#[derive(ScheduleLabel, Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct CcdStartSchedule;
+
+/// The schedule [`CcdPlugin`] runs the phases after the movement in, from its main schedule:
+/// [`CcdSystems::RecordEnd`], [`CcdSystems::BroadPhase`], [`CcdSystems::TimeOfImpact`] and
+/// [`CcdSystems::Resolve`], chained.
+///
+/// On the single-threaded executor; with [`CcdConfig::parallel`] it runs on a thread of the
+/// compute task pool, so a system added to it must not need the main thread.
+///
+/// ```
+/// use bevy_app::prelude::*;
+/// use bevy_ccd::prelude::*;
+/// use bevy_ecs::prelude::*;
+///
+/// fn between(workspace: Res<bevy_ccd::plugin::CcdWorkspace>) {
+///     // Every body is gathered, none is solved yet.
+///     let _ = workspace.body_count();
+/// }
+/// let mut app = App::new();
+/// app.add_plugins((bevy_time::TimePlugin, CcdPlugin::default()))
+///     .add_systems(
+///         CcdSchedule,
+///         between
+///             .after(CcdSystems::BroadPhase)
+///             .before(CcdSystems::TimeOfImpact),
+///     );
+/// ```
+#[derive(ScheduleLabel, Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct CcdSchedule;
+
+/// Runs `label` on this thread, or, when the config asks for the pool and it has more than
+/// one thread, on a pool thread while this one waits: the phases' own scopes then count that
+/// thread as one of the pool's (they spawn one helper fewer than the pool has threads, or let
+/// the calling thread take tasks), so no more threads work than the pool has.
+fn run_phases(world: &mut World, label: impl ScheduleLabel + Clone) {
+    let config = world
+        .get_resource::<CcdConfig>()
+        .copied()
+        .unwrap_or_default();
+    match systems::pool(&config) {
+        Some(pool) => {
+            // `false`: this thread takes no task of the pool's, it only waits.
+            pool.scope_with_executor(false, None, |s| {
+                s.spawn(async move {
+                    let _ = world.try_run_schedule(label);
+                });
+            });
+        }
+        None => {
+            let _ = world.try_run_schedule(label);
+        }
+    }
+}
+
+/// Runs [`CcdStartSchedule`].
+fn run_start_schedule(world: &mut World) {
+    run_phases(world, CcdStartSchedule);
+}
+
+/// Runs [`CcdSchedule`].
+fn run_schedule(world: &mut World) {
+    run_phases(world, CcdSchedule);
+}
+
 impl Plugin for CcdPlugin {
     fn build(&self, app: &mut App) {
         app.init_resource::<CcdConfig>()
@@ -92,8 +181,14 @@ impl Plugin for CcdPlugin {
             .register_type::<Restitution>()
             .register_type::<Friction>()
             .register_type::<BodyMass>();
+        for label in [CcdStartSchedule.intern(), CcdSchedule.intern()] {
+            app.init_schedule(label);
+            app.edit_schedule(label, |schedule| {
+                schedule.set_executor(SingleThreadedExecutor::new());
+            });
+        }
         app.configure_sets(
-            self.schedule,
+            CcdSchedule,
             (
                 CcdSystems::RecordEnd,
                 CcdSystems::BroadPhase,
@@ -104,10 +199,22 @@ impl Plugin for CcdPlugin {
         );
         app.add_systems(
             self.start_schedule,
-            systems::record_start.in_set(CcdSystems::RecordStart),
+            run_start_schedule.in_set(CcdSystems::RecordStart),
         );
         app.add_systems(
             self.schedule,
+            run_schedule
+                .in_set(CcdSystems::RecordEnd)
+                .in_set(CcdSystems::BroadPhase)
+                .in_set(CcdSystems::TimeOfImpact)
+                .in_set(CcdSystems::Resolve),
+        );
+        app.add_systems(
+            CcdStartSchedule,
+            systems::record_start.in_set(CcdSystems::RecordStart),
+        );
+        app.add_systems(
+            CcdSchedule,
             (
                 systems::record_end.in_set(CcdSystems::RecordEnd),
                 systems::gather_bodies.in_set(CcdSystems::BroadPhase),
@@ -120,8 +227,10 @@ impl Plugin for CcdPlugin {
 
 /// The ordered phases of continuous collision, one step.
 ///
-/// `RecordStart` runs in the plugin's start schedule; the others run, chained in this order,
-/// in its main schedule.
+/// `RecordStart` runs in [`CcdStartSchedule`]; the others run, chained in this order, in
+/// [`CcdSchedule`]. In the plugin's own start and main schedules, the one system that runs
+/// each of these belongs to its phases' sets, so ordering against a set there orders against
+/// the whole of that schedule's phases.
 #[derive(SystemSet, Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum CcdSystems {
     /// Records the start pose of every CCD body.

@@ -196,7 +196,7 @@ impl CcdWorkspace {
 
 /// The task pool to split work over, when the config asks for it and there is more than one
 /// thread to split it over.
-fn pool(config: &CcdConfig) -> Option<&'static TaskPool> {
+pub(crate) fn pool(config: &CcdConfig) -> Option<&'static TaskPool> {
     if !config.parallel {
         return None;
     }
