@@ -47,21 +47,22 @@ use crate::geometry::LINEAR_SLOP;
 /// # Schedules
 ///
 /// As Avian runs its `PhysicsSchedule`, the phases run in schedules of their own,
-/// [`CcdStartSchedule`] (`RecordStart`) and [`CcdSchedule`] (the other four, chained), each
-/// run by one exclusive system of the plugin's schedules, on the single-threaded executor:
-/// each phase spreads its own work over the compute task pool. In the plugin's schedules
-/// that exclusive system belongs to every phase's set, so `.before(CcdSystems::RecordEnd)` and
-/// `.after(CcdSystems::Resolve)` order a system of yours before or after the whole step
-/// there; to run one between two phases, add it to [`CcdSchedule`].
+/// [`CcdStartSchedule`] (`RecordStart`) and [`CcdSchedule`] (the other four, chained), on the
+/// single-threaded executor, each run by one exclusive system of the plugin's schedules, on
+/// the thread that runs those (the main thread in an app). Each phase spreads its own work
+/// over that thread and the compute task pool's threads ([`CcdConfig::parallel`]). In the
+/// plugin's schedules the exclusive system belongs to every phase's set, so
+/// `.before(CcdSystems::RecordEnd)` and `.after(CcdSystems::Resolve)` order a system of yours
+/// before or after the whole step there; to run one between two phases, add it to
+/// [`CcdSchedule`]. The price: systems of yours in the same schedule do not run beside the
+/// CCD step.
 ///
-/// Why: on the multi-threaded executor each system of a phase was handed to a pool thread,
-/// and its data moved to that core's cache; on the 2-core VM of `BENCHMARKS.md` (seventh
-/// session) a 1,000-body step on one thread took 0.30 ms run this way against 0.42-0.44 ms
-/// handed out (full runs the same hour), and a 10,000-body step 4.0 against 4.3 ms on one
-/// thread and 2.17 against 2.26 ms on two (medians of six alternating runs). With
-/// [`CcdConfig::parallel`] the schedule runs on one pool thread, with the others as its
-/// helpers, while the calling thread waits, so the phases never have more threads than the
-/// pool. The price: systems of yours in the same schedule do not run beside the CCD step.
+/// Why: on the multi-threaded executor each phase's system was handed to a pool thread (a
+/// wake-up and a trip back, 20-150 µs each on our 2-core VM) and its data moved to that
+/// core's cache. Measured there (`BENCHMARKS.md`, seventh session), one thread: a 1,000-body
+/// step 0.30-0.40 ms against 0.42-0.44 ms handed out (full runs the same hour), a
+/// 10,000-body step 3.4-3.8 ms against 4.1-4.7 ms (six alternating runs); two threads
+/// unchanged.
 ///
 /// ```
 /// use bevy_app::prelude::*;
@@ -98,8 +99,7 @@ impl Default for CcdPlugin {
 
 /// The schedule [`CcdPlugin`] runs [`CcdSystems::RecordStart`] in, from its start schedule.
 ///
-/// On the single-threaded executor; with [`CcdConfig::parallel`] it runs on a thread of the
-/// compute task pool, so a system added to it must not need the main thread.
+/// On the single-threaded executor, on the thread that runs the plugin's start schedule.
 #[derive(ScheduleLabel, Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct CcdStartSchedule;
 
@@ -107,8 +107,7 @@ pub struct CcdStartSchedule;
 /// [`CcdSystems::RecordEnd`], [`CcdSystems::BroadPhase`], [`CcdSystems::TimeOfImpact`] and
 /// [`CcdSystems::Resolve`], chained.
 ///
-/// On the single-threaded executor; with [`CcdConfig::parallel`] it runs on a thread of the
-/// compute task pool, so a system added to it must not need the main thread.
+/// On the single-threaded executor, on the thread that runs the plugin's main schedule.
 ///
 /// ```
 /// use bevy_app::prelude::*;
@@ -131,38 +130,16 @@ pub struct CcdStartSchedule;
 #[derive(ScheduleLabel, Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct CcdSchedule;
 
-/// Runs `label` on this thread, or, when the config asks for the pool and it has more than
-/// one thread, on a pool thread while this one waits: the phases' own scopes then count that
-/// thread as one of the pool's (they spawn one helper fewer than the pool has threads, or let
-/// the calling thread take tasks), so no more threads work than the pool has.
-fn run_phases(world: &mut World, label: impl ScheduleLabel + Clone) {
-    let config = world
-        .get_resource::<CcdConfig>()
-        .copied()
-        .unwrap_or_default();
-    match systems::pool(&config) {
-        Some(pool) => {
-            // `false`: this thread takes no task of the pool's, it only waits.
-            pool.scope_with_executor(false, None, |s| {
-                s.spawn(async move {
-                    let _ = world.try_run_schedule(label);
-                });
-            });
-        }
-        None => {
-            let _ = world.try_run_schedule(label);
-        }
-    }
-}
-
-/// Runs [`CcdStartSchedule`].
+/// Runs [`CcdStartSchedule`] on this thread (which works in each phase's parallel regions
+/// beside the pool's threads, see [`CcdConfig::parallel`]).
 fn run_start_schedule(world: &mut World) {
-    run_phases(world, CcdStartSchedule);
+    let _ = world.try_run_schedule(CcdStartSchedule);
 }
 
-/// Runs [`CcdSchedule`].
+/// Runs [`CcdSchedule`] on this thread (which works in each phase's parallel regions beside
+/// the pool's threads, see [`CcdConfig::parallel`]).
 fn run_schedule(world: &mut World) {
-    run_phases(world, CcdSchedule);
+    let _ = world.try_run_schedule(CcdSchedule);
 }
 
 impl Plugin for CcdPlugin {
@@ -298,10 +275,11 @@ pub struct CcdConfig {
     /// Spread bodies over the compute task pool. Results are identical either way. The default
     /// is `true`.
     ///
-    /// Like Bevy's own `par_iter`, this needs a compute pool of two threads or more. Bevy's
-    /// default pools give a 2-core machine one compute thread (one each for IO and async
-    /// compute, the compute pool what is left, at least one), so there the plugin runs on one
-    /// thread unless `TaskPoolPlugin` is told otherwise (`compute.min_threads: 2`).
+    /// The thread that runs the plugin's schedules (the main thread in an app) works beside
+    /// the pool's threads, so a pool of one thread already makes two workers: Bevy's default
+    /// pools give a 2-core machine exactly that (one thread each for IO and async compute,
+    /// the compute pool what is left). A pool as large as the machine has cores makes one
+    /// worker more than there are cores.
     pub parallel: bool,
 }
 

@@ -194,14 +194,21 @@ impl CcdWorkspace {
     }
 }
 
-/// The task pool to split work over, when the config asks for it and there is more than one
-/// thread to split it over.
+/// The task pool to split work over, when the config asks for it and it has a thread. The
+/// phases run on the thread that runs the plugin's schedules (the main thread in an app),
+/// which works beside the pool's threads in every parallel region: a pool of one thread, what
+/// Bevy's default pools give a 2-core machine, already makes two workers.
 pub(crate) fn pool(config: &CcdConfig) -> Option<&'static TaskPool> {
     if !config.parallel {
         return None;
     }
     let pool = ComputeTaskPool::get_or_init(TaskPool::default);
-    (pool.thread_num() > 1).then_some(&**pool)
+    (pool.thread_num() >= 1).then_some(&**pool)
+}
+
+/// Threads that work in a parallel region: the pool's and the calling thread.
+fn workers(pool: &TaskPool) -> usize {
+    pool.thread_num() + 1
 }
 
 /// Runs `f` on every item of `query`: on the task pool when the config asks for it (in many
@@ -446,7 +453,7 @@ pub(crate) fn gather_bodies(
     // Lanes are cut from an upper bound of the bodies (every one the query matches), so that
     // each lane can start as soon as the listing has filled it (below).
     let most = bodies.iter().len();
-    let lanes = pool.map_or(1, |p| (p.thread_num() * LANES_PER_THREAD).min(MAX_LANES));
+    let lanes = pool.map_or(1, |p| (workers(p) * LANES_PER_THREAD).min(MAX_LANES));
     let lane_len = most.div_ceil(lanes).max(MIN_LANE_LEN);
     workspace.lane_len = lane_len;
     let lane_count = most.div_ceil(lane_len);
@@ -678,7 +685,7 @@ fn fill(body: &mut BodyEntry) -> Result<(), CcdError> {
 /// threads.
 ///
 /// On the pool, the lanes are handed out one at a time from a shared counter, to the
-/// calling thread and to `threads - 1` helper tasks; the calling thread, the only one that
+/// calling thread and to one helper task per pool thread; the calling thread, the only one that
 /// may write components, writes each finished lane back between its own lanes. The write-back
 /// (about 50 ns a visited body, 0.09-0.11 ms at 10,000 bodies) so overlaps the solve instead
 /// of following it on one thread while the others wait (it was a system of its own, serial).
@@ -725,7 +732,7 @@ pub(crate) fn solve_bodies(
             let failed = AtomicBool::new(false);
             let (slots, next, solve, failed) = (&slots[..], &next, &solve, &failed);
             pool.scope(|s| {
-                for _ in 1..pool.thread_num() {
+                for _ in 0..pool.thread_num() {
                     s.spawn(async move {
                         // A helper that panics (a bug) leaves its lane taken: the flag stops
                         // the wait below, and the scope passes the panic on.
