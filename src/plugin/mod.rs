@@ -61,8 +61,8 @@ use crate::geometry::LINEAR_SLOP;
 /// wake-up and a trip back, 20-150 µs each on our 2-core VM) and its data moved to that
 /// core's cache. Measured there (`BENCHMARKS.md`, seventh session), one thread: a 1,000-body
 /// step 0.30-0.40 ms against 0.42-0.44 ms handed out (full runs the same hour), a
-/// 10,000-body step 3.4-3.8 ms against 4.1-4.7 ms (six alternating runs); two threads
-/// unchanged.
+/// 10,000-body step 3.4-3.8 ms against 4.1-4.7 ms (six alternating runs); on two threads
+/// (this thread and one pool thread against two pool threads) 2.2-2.5 against 2.3-3.1 ms.
 ///
 /// ```
 /// use bevy_app::prelude::*;

@@ -374,9 +374,9 @@ pub(crate) struct StaticWatch<'w, 's> {
 /// hierarchy when a static was added, removed, moved or reshaped. Targets are indexed in
 /// entity order, so the tree and every candidate list are deterministic.
 ///
-/// Part of the gather's system rather than a system of its own, which spares the
-/// multi-threaded executor one hand-off to a pool thread a step (13-20 µs for a trivial
-/// system in the sixth session's probe; at 1,000 bodies the step changed within the host's
+/// Part of the gather's system rather than a system of its own: one system fewer to run (it
+/// was measured while the phases still ran on the multi-threaded executor, where each system
+/// was a hand-off to a pool thread; at 1,000 bodies the step changed within the host's
 /// noise).
 ///
 /// Additions, removals and new shapes reach the workspace through the hooks of
