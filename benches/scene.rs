@@ -1,10 +1,10 @@
 //! CCD at scale: one fixed step of the CCD phases on a seeded level (`testing::generate_level`:
 //! walls, boxes and slopes, one static per 4 m cell; bodies of every shape at 1..500 m/s with
-//! up to a turn per step), for N bodies x M statics x {Clamp, SubStep} x {1 thread, 2 threads},
+//! up to a turn per step), for N bodies x M statics x {Clamp, SubStep} x {1 thread, 2 threads}
 //! (2 threads: the main thread, which runs the plugin's schedules, and a compute pool of one
-//! thread, see `init_pool`), the per-phase split, the pure query/solve kernels (to isolate the plugin's own overhead),
-//! the memory kept per body, and the same scenes in Box2D v3 (`boxdd`) and Rapier
-//! (`rapier2d`) with their continuous collision on and off.
+//! thread, see `init_pool`), the per-phase split, the pure query/solve kernels (to isolate the
+//! plugin's own overhead), the memory kept per body, and the same scenes in Box2D v3 (`boxdd`)
+//! and Rapier (`rapier2d`) with their continuous collision on and off.
 //!
 //! ```text
 //! CARGO_TARGET_DIR=target-scene cargo bench --bench scene
