@@ -24,6 +24,11 @@
 //! step vs its kernels, and each peer with its CCD on vs off. 1 vs 2 threads is also paired
 //! in blocks of 6 steps per side, the first of each dropped (see `paired_speedup`); at
 //! 10,000 bodies in three windows minutes apart, all readings and their median reported.
+//! Ratios between two different worlds are also taken from *windows* seconds apart (steps
+//! interleaved one by one would make the two worlds evict each other's caches): ours is
+//! timed for a second right before and after each peer's paired rounds (`ours_window`), and
+//! the growth and statics ratios come from two of our scenes alternating in windows
+//! (`alternating_ratio`).
 //!
 //! Our step times are taken without instrumentation; the phase split comes from a second
 //! copy of the scene with timestamp systems between the CCD sets.
@@ -135,8 +140,9 @@ struct Ours {
     teleport: bool,
 }
 
-/// Seconds: [total, record (start + end), broad phase, time of impact, resolve, scheduling].
-type Phases = [f64; 6];
+/// Seconds: [total, record (start + end), broad phase, time of impact, resolve, scheduling,
+/// the start schedule (the record phase's first part, with its schedule)].
+type Phases = [f64; 7];
 
 impl Ours {
     /// `stamped`: with the five timestamp systems between the CCD sets, for the phase split.
@@ -239,11 +245,19 @@ impl Ours {
         let b = t1.elapsed().as_secs_f64();
         let stamps = world.resource::<Stamps>().0;
         if stamps[0].is_none() {
-            return [a + b, 0.0, 0.0, 0.0, 0.0, 0.0];
+            return [a + b, 0.0, 0.0, 0.0, 0.0, 0.0, a];
         }
         let s = stamps.map(|s| s.expect("stamped"));
         let d = |i: usize, j: usize| (s[j] - s[i]).as_secs_f64();
-        [a + b, a + d(0, 1), d(1, 2), d(2, 3), d(3, 4), b - d(0, 4)]
+        [
+            a + b,
+            a + d(0, 1),
+            d(1, 2),
+            d(2, 3),
+            d(3, 4),
+            b - d(0, 4),
+            a,
+        ]
     }
 
     /// Impacts and sub-steps of the last step.
@@ -663,18 +677,17 @@ fn bench_custom(
 /// alternate for about two seconds (at least 15 and at most 400 steps each): the ratio of the
 /// two medians. Also returns the number of steps each side kept.
 ///
-/// `block` steps per side and round. With 1, the two alternate step by step: every step then
-/// starts on data the other configuration left (the bodies' components and the lanes in one
-/// core's cache after a 1-thread step, split over two after a 2-thread one), which a game,
-/// running one configuration, never pays. With more, the first step of each block pays that
-/// switch and is dropped, and the others are steady; blocks of 6 (about 15-20 ms at 10,000
-/// bodies) still alternate fast enough to cancel the machine's drift. Measured at 10k × 1k,
-/// clamp: the first 2-thread step of a block is 3-8 % slower than the rest, the first
-/// 1-thread step 0.3-2 % faster.
-fn paired_speedup(app: &mut Ours, mode: Resolution, block: usize) -> (f64, usize) {
+/// `block` steps per side and round, the first `drop` of each block not kept. With 1 and 0,
+/// the two alternate step by step: every step then starts on data the other configuration
+/// left (the bodies' components and the lanes in one core's cache after a 1-thread step, split
+/// over two after a 2-thread one), which a game, running one configuration, never pays. In
+/// blocks, the first steps of each block pay that switch and are dropped, and the others are
+/// steady; blocks of [`SPEEDUP_BLOCK`] still alternate fast enough to cancel the machine's
+/// drift (see there for the measured transient).
+fn paired_speedup(app: &mut Ours, mode: Resolution, block: usize, drop: usize) -> (f64, usize) {
     let (mut one, mut two) = (Vec::new(), Vec::new());
     let start = Instant::now();
-    let keep = |k: usize| block == 1 || k > 0;
+    let keep = |k: usize| k >= drop;
     while one.len() < 400 && (one.len() < 15 || start.elapsed().as_secs_f64() < 2.0) {
         for (parallel, out) in [(false, &mut one), (true, &mut two)] {
             app.configure(mode, parallel);
@@ -693,8 +706,17 @@ fn paired_speedup(app: &mut Ours, mode: Resolution, block: usize) -> (f64, usize
 /// (N, M, mode) -> the paired speed-up and its rounds, step by step and in blocks.
 type Speedups = BTreeMap<(usize, usize, &'static str), (f64, usize, f64, usize)>;
 
-/// Steps per side and round of [`paired_speedup`] in blocks (the first of each dropped).
+/// Steps per side and round of [`paired_speedup`] in blocks, about 20 ms at 10,000 bodies on
+/// one thread.
+///
+/// Measured at 10k × 1k, clamp, median step time by position in blocks of 12 (three runs,
+/// eighth session): two threads 2.22-2.25, 2.11-2.17, 2.12-2.13, 2.10-2.12 ms, then
+/// 2.03-2.09 ms from the fifth step on; one thread within ±1 % of its steady time throughout.
+/// Blocks of 12 less 4 against these blocks of 6 less 1, alternating in one process (nine
+/// pairs): mean speed-up 1.651 against 1.659, no difference the host's noise lets through.
 const SPEEDUP_BLOCK: usize = 6;
+/// Steps not kept at the start of each block of [`paired_speedup`], on both sides.
+const SPEEDUP_DROP: usize = 1;
 
 /// Seconds a peer's CCD adds to one step: the median over rounds of `on - off`, the two
 /// worlds stepping alternately from their reset state, for about two seconds (at least 15
@@ -721,6 +743,44 @@ fn paired_difference(off: &mut dyn Peer, on: &mut dyn Peer) -> (f64, usize) {
     }
     let rounds = diffs.len();
     (median(&mut diffs), rounds)
+}
+
+/// Our one-thread step in `mode`, timed for about `seconds` (at least 15 and at most 2,000
+/// steps): the median in seconds. Used right before and after each peer's paired rounds
+/// ([`paired_difference`]), so that our cost and the peer's are taken seconds apart rather
+/// than minutes: the host's capacity moves by ±20 % from minute to minute. A window, not
+/// steps interleaved with the peer's: interleaved, the two worlds evict each other's caches
+/// (at 1,000 bodies ours read 0.55-0.62 µs a body beside a peer against 0.43 alone, seventh
+/// session); the first steps of a window, which pay for that, are dropped.
+///
+/// Also for the growth and statics ratios, from windows of the two scenes alternating
+/// ([`alternating_ratio`]).
+fn ours_window(app: &mut Ours, mode: Resolution, seconds: f64) -> f64 {
+    app.configure(mode, false);
+    for _ in 0..3 {
+        app.step();
+    }
+    let mut steps = Vec::new();
+    let start = Instant::now();
+    while steps.len() < 2_000 && (steps.len() < 15 || start.elapsed().as_secs_f64() < seconds) {
+        steps.push(app.step()[0]);
+    }
+    median(&mut steps)
+}
+
+/// Rounds of alternating one-thread windows of two of our scenes: the median over rounds of
+/// `b`'s step per body over `a`'s (`a` first, then `b`, half a second each, three rounds).
+/// The growth and statics targets compare two scene sizes; from the criterion medians they
+/// are taken minutes apart, here seconds apart.
+fn alternating_ratio(a: (&mut Ours, usize), b: (&mut Ours, usize), mode: Resolution) -> f64 {
+    let mut ratios: Vec<f64> = (0..3)
+        .map(|_| {
+            let ta = ours_window(a.0, mode, 0.5) / a.1 as f64;
+            let tb = ours_window(b.0, mode, 0.5) / b.1 as f64;
+            tb / ta
+        })
+        .collect();
+    median(&mut ratios)
 }
 
 fn mode_name(r: Resolution) -> &'static str {
@@ -815,8 +875,8 @@ fn profile(mode: &str) {
     let mut ours = Ours::new(&lvl, true);
     if std::env::var_os("SCENE_SPEEDUP").is_some() {
         for _ in 0..3 {
-            let (speedup, rounds) = paired_speedup(&mut ours, resolution, 1);
-            let (blocks, kept) = paired_speedup(&mut ours, resolution, SPEEDUP_BLOCK);
+            let (speedup, rounds) = paired_speedup(&mut ours, resolution, 1, 0);
+            let (blocks, kept) = paired_speedup(&mut ours, resolution, SPEEDUP_BLOCK, SPEEDUP_DROP);
             println!(
                 "paired speed-up {speedup:.3} ({rounds} rounds), in blocks {blocks:.3} ({kept} steps)"
             );
@@ -845,6 +905,7 @@ fn profile(mode: &str) {
         "TOI",
         "resolve",
         "schedule",
+        "record: the start schedule",
     ];
     for (k, name) in names.iter().enumerate() {
         let mut v: Vec<f64> = phases.iter_mut().map(|p| p[k]).collect();
@@ -904,7 +965,9 @@ fn main() {
     // their median. One window of two seconds can fall where the host's second core stalls: in
     // the sixth session's run 35 the 10k x 1k clamp speed-up read 1.98 from the criterion
     // medians and 1.49 paired in blocks a minute later.
-    let mut kept: Vec<(usize, Ours)> = Vec::new();
+    // The other scenes are kept too: for the windows of ours beside each peer, and for the
+    // growth and statics ratios from alternating windows.
+    let mut kept: Vec<(usize, usize, Ours)> = Vec::new();
     for &m in ms {
         for &n in ns {
             let t = Instant::now();
@@ -962,8 +1025,8 @@ fn main() {
                         .unwrap();
                     }
                 }
-                let (speedup, rounds) = paired_speedup(&mut app, mode, 1);
-                let (blocks, kept) = paired_speedup(&mut app, mode, SPEEDUP_BLOCK);
+                let (speedup, rounds) = paired_speedup(&mut app, mode, 1, 0);
+                let (blocks, kept) = paired_speedup(&mut app, mode, SPEEDUP_BLOCK, SPEEDUP_DROP);
                 speedups.insert((n, m, mode_name(mode)), (speedup, rounds, blocks, kept));
             }
             {
@@ -1036,9 +1099,7 @@ fn main() {
                     .unwrap();
                 }
             }
-            if n == 10_000 {
-                kept.push((m, app));
-            }
+            kept.push((n, m, app));
         }
     }
     // (M, mode) -> the 10k-body speed-up in blocks, one reading per window.
@@ -1047,10 +1108,10 @@ fn main() {
         .filter(|((n, ..), _)| *n == 10_000)
         .map(|(&(_, m, mode), &(_, _, blocks, _))| ((m, mode), vec![blocks]))
         .collect();
-    let mut window = |kept: &mut Vec<(usize, Ours)>| {
-        for (m, app) in kept.iter_mut() {
+    let mut window = |kept: &mut Vec<(usize, usize, Ours)>| {
+        for (_, m, app) in kept.iter_mut().filter(|(n, ..)| *n == 10_000) {
             for mode in modes {
-                let (blocks, _) = paired_speedup(app, mode, SPEEDUP_BLOCK);
+                let (blocks, _) = paired_speedup(app, mode, SPEEDUP_BLOCK, SPEEDUP_DROP);
                 windows
                     .entry((*m, mode_name(mode)))
                     .or_default()
@@ -1139,16 +1200,25 @@ fn main() {
         alone * 1e3
     )
     .unwrap();
-    writeln!(out, "| engine | N | M | step CCD off | step CCD on | CCD cost/body from the two medians (µs) | CCD cost/body, paired (µs) (rounds) | bodies its CCD moved | ours clamp 1t µs/body | ours clamp / peer (paired) | ours − Bevy alone, µs/body | that / peer | ours substep 1t µs/body | ours substep 2t µs/body |").unwrap();
+    writeln!(out, "| engine | N | M | step CCD off | step CCD on | CCD cost/body from the two medians (µs) | CCD cost/body, paired (µs) (rounds) | bodies its CCD moved | ours clamp 1t µs/body | ours clamp / peer (paired) | ours − Bevy alone, µs/body | that / peer | ours clamp 1t beside the peer, µs/body | that / peer | ours substep 1t µs/body | ours substep 2t µs/body |").unwrap();
     writeln!(
         out,
-        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
     )
     .unwrap();
     let peer_ms: &[usize] = if quick { &[1_000] } else { &[1_000, 100_000] };
     for &m in peer_ms {
         for &n in &[1_000usize, 10_000] {
             let lvl = level(n, m);
+            // Ours in windows of about a second right before and after each peer's paired
+            // rounds, so that both sides of the ratio see the host in the same state.
+            let mut ours_app = kept
+                .iter_mut()
+                .find(|(kn, km, _)| (*kn, *km) == (n, m))
+                .map(|(.., app)| app);
+            let mut before = ours_app
+                .as_deref_mut()
+                .map_or(f64::NAN, |app| ours_window(app, Resolution::Clamp, 1.0));
             for engine in ["box2d", "box2d bullets", "rapier", "rapier ccd_enabled"] {
                 let mut med = [0.0; 2];
                 let mut ends: [Vec<Vec2>; 2] = Default::default();
@@ -1203,6 +1273,11 @@ fn main() {
                     .zip(&ends[1])
                     .filter(|(a, b)| a.distance(**b) > 1e-3)
                     .count();
+                let after = ours_app
+                    .as_deref_mut()
+                    .map_or(f64::NAN, |app| ours_window(app, Resolution::Clamp, 1.0));
+                let beside = 0.5 * (before + after) * 1e6 / n as f64;
+                before = after;
                 let per = paired * 1e6 / n as f64;
                 let per_separate = (med[1] - med[0]) * 1e6 / n as f64;
                 let oc = ours
@@ -1225,9 +1300,14 @@ fn main() {
                 } else {
                     "n/a".into()
                 };
+                let beside_ratio = if per > 0.0 {
+                    format!("{:.2}", beside / per)
+                } else {
+                    "n/a".into()
+                };
                 writeln!(
                     out,
-                    "| {engine} | {n} | {m} | {:.3} | {:.3} | {per_separate:.3} | {per:.3} ({rounds}) | {changed} | {oc:.3} | {ratio} | {added:.3} | {added_ratio} | {os:.3} | {os2:.3} |",
+                    "| {engine} | {n} | {m} | {:.3} | {:.3} | {per_separate:.3} | {per:.3} ({rounds}) | {changed} | {oc:.3} | {ratio} | {added:.3} | {added_ratio} | {beside:.3} | {beside_ratio} | {os:.3} | {os2:.3} |",
                     med[0] * 1e3,
                     med[1] * 1e3,
                 )
@@ -1259,6 +1339,57 @@ fn main() {
             median(&mut sorted)
         )
         .unwrap();
+    }
+    // Growth (1k -> the largest N) and statics (1k -> 100k), from alternating windows.
+    let mut pair = |a: (usize, usize), b: (usize, usize), mode: Resolution| -> f64 {
+        let find = |key: (usize, usize)| kept.iter().position(|(n, m, _)| (*n, *m) == key);
+        let (Some(i), Some(j)) = (find(a), find(b)) else {
+            return f64::NAN;
+        };
+        let (lo, hi) = kept.split_at_mut(i.max(j));
+        let (first, second) = (&mut lo[i.min(j)].2, &mut hi[0].2);
+        let (app_a, app_b) = if i < j {
+            (first, second)
+        } else {
+            (second, first)
+        };
+        alternating_ratio((app_a, a.0), (app_b, b.0), mode)
+    };
+    let largest = *ns.last().expect("sizes");
+    writeln!(
+        out,
+        "\n### Ours: growth and statics ratios from alternating windows\n\n\
+         Cost per body of the larger scene over the smaller's, one thread, the two scenes \
+         alternating in windows of half a second (median of three rounds; `alternating_ratio`), \
+         after the peers.\n"
+    )
+    .unwrap();
+    writeln!(out, "| ratio | N | M | mode | alternating windows |").unwrap();
+    writeln!(out, "|---|---|---|---|---|").unwrap();
+    for &m in ms {
+        for mode in modes {
+            let r = pair((ns[0], m), (largest, m), mode);
+            writeln!(
+                out,
+                "| growth {} -> {largest} bodies | | {m} | {} | {r:.2} |",
+                ns[0],
+                mode_name(mode)
+            )
+            .unwrap();
+        }
+    }
+    for &n in ns {
+        for mode in modes {
+            let r = pair((n, ms[0]), (n, ms[1]), mode);
+            writeln!(
+                out,
+                "| statics {} -> {} | {n} | | {} | {r:.2} |",
+                ms[0],
+                ms[1],
+                mode_name(mode)
+            )
+            .unwrap();
+        }
     }
     c.final_summary();
     println!("\n{out}");
