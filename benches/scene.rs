@@ -710,7 +710,8 @@ type Speedups = BTreeMap<(usize, usize, &'static str), (f64, usize, f64, usize)>
 /// one thread.
 ///
 /// Measured at 10k × 1k, clamp, median step time by position in blocks of 12 (three runs,
-/// eighth session): two threads 2.22-2.25, 2.11-2.17, 2.12-2.13, 2.10-2.12 ms, then
+/// eighth session, with a build that also kept the pool's thread spinning between regions,
+/// not kept): two threads 2.22-2.25, 2.11-2.17, 2.12-2.13, 2.10-2.12 ms, then
 /// 2.03-2.09 ms from the fifth step on; one thread within ±1 % of its steady time throughout.
 /// Blocks of 12 less 4 against these blocks of 6 less 1, alternating in one process (nine
 /// pairs): mean speed-up 1.651 against 1.659, no difference the host's noise lets through.
