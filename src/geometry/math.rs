@@ -133,12 +133,11 @@ pub fn atan2(y: f32, x: f32) -> f32 {
     }
     // One division whatever the range, on |x| and |y| directly: with t = |y / x|,
     // -1 / t = -|x| / |y| and (t - 1) / (t + 1) = (|y| - |x|) / (|y| + |x|). The range is
-    // picked by comparisons without dividing, and by selects: angles read off bodies are
-    // random, so branches on them would be mispredicted half the time.
+    // picked by comparisons without dividing, and by bit-mask selects ([`select`]): angles
+    // read off bodies are random, and written as `if`s the compiler branched, mispredicting
+    // for about half the bodies (10,000 bodies, the record pass: 19 ns a body with the
+    // branches, 15 with the selects, 2 for the same pass reading no angle).
     let (ax, ay) = (x.abs(), y.abs());
-    // Selected with bit masks ([`select`]): written as `if`s, the compiler branched, and on
-    // random angles those branches were mispredicted for about half the bodies (the record
-    // pass's angle read took 17 ns a body, against 2 ns for the pass without it).
     let big = ay > TAN_3PI_8 * ax;
     let mid = ay > TAN_PI_8 * ax;
     let base = select(big, FRAC_PI_2, select(mid, FRAC_PI_4, 0.0));
