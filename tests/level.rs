@@ -22,3 +22,8 @@ fn level_steps_match_the_geometry_layer_clamp() {
 fn level_steps_match_the_geometry_layer_substep() {
     level::check(Resolution::SubStep { max_substeps: 4 });
 }
+
+#[test]
+fn record_passes_on_the_pool_match_one_thread() {
+    level::check_records();
+}

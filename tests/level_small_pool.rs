@@ -1,7 +1,8 @@
 //! The level check of `tests/level.rs` with a compute task pool of one thread, as Bevy's
 //! default pools give a 2-core machine: the thread that runs the plugin's schedules and the
 //! pool's one thread share every parallel region (two workers), and the answers must still
-//! equal the serial ones and the geometry layer's, bit for bit.
+//! equal the serial ones and the geometry layer's, bit for bit. The same for the record passes,
+//! which split their bodies over those two workers.
 
 #[path = "support/level.rs"]
 mod level;
@@ -16,4 +17,5 @@ fn level_steps_match_with_a_pool_of_one_thread() {
     assert_eq!(pool.thread_num(), 1);
     level::check(Resolution::Clamp);
     level::check(Resolution::SubStep { max_substeps: 4 });
+    level::check_records();
 }
