@@ -15,7 +15,8 @@
 //!                                   # SCENE_PROFILE_PARALLEL=1: on the pool; SCENE_PAIR_STATS=1:
 //!                                   # time-of-impact statistics per pair class first;
 //!                                   # SCENE_SPEEDUP=1: three paired 1-vs-2-thread ratios,
-//!                                   # step by step and in blocks)
+//!                                   # step by step and in blocks; SCENE_SPEEDUP_BLOCK and
+//!                                   # SCENE_SPEEDUP_DROP: other block lengths and drops)
 //! ```
 //!
 //! The machine this runs on drifts by more than the targets' margins over minutes, so each
@@ -877,7 +878,18 @@ fn profile(mode: &str) {
     if std::env::var_os("SCENE_SPEEDUP").is_some() {
         for _ in 0..3 {
             let (speedup, rounds) = paired_speedup(&mut ours, resolution, 1, 0);
-            let (blocks, kept) = paired_speedup(&mut ours, resolution, SPEEDUP_BLOCK, SPEEDUP_DROP);
+            let knob = |name: &str, default: usize| {
+                std::env::var(name)
+                    .ok()
+                    .and_then(|s| s.parse().ok())
+                    .unwrap_or(default)
+            };
+            let (blocks, kept) = paired_speedup(
+                &mut ours,
+                resolution,
+                knob("SCENE_SPEEDUP_BLOCK", SPEEDUP_BLOCK),
+                knob("SCENE_SPEEDUP_DROP", SPEEDUP_DROP),
+            );
             println!(
                 "paired speed-up {speedup:.3} ({rounds} rounds), in blocks {blocks:.3} ({kept} steps)"
             );

@@ -4,10 +4,8 @@
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
-use bevy_ecs::batching::BatchingStrategy;
 use bevy_ecs::change_detection::Tick;
 use bevy_ecs::prelude::*;
-use bevy_ecs::query::{IterQueryData, QueryFilter, QueryItem};
 use bevy_ecs::system::{SystemChangeTick, SystemParam};
 use bevy_tasks::{ComputeTaskPool, TaskPool};
 use bevy_time::{Fixed, Time};
@@ -211,28 +209,6 @@ fn workers(pool: &TaskPool) -> usize {
     pool.thread_num() + 1
 }
 
-/// Runs `f` on every item of `query`: on the task pool when the config asks for it (in many
-/// batches per thread, so that a thread held up elsewhere does not leave half the bodies
-/// waiting), else in order on this thread.
-fn for_each_body<'a, 's, D: IterQueryData, F: QueryFilter>(
-    config: &CcdConfig,
-    query: &'a mut Query<'_, 's, D, F>,
-    f: impl Fn(QueryItem<'a, 's, D>) + Send + Sync + Clone,
-) {
-    if pool(config).is_some() {
-        query
-            .par_iter_mut()
-            .batching_strategy(
-                BatchingStrategy::new()
-                    .min_batch_size(RECORD_MIN_BATCH)
-                    .batches_per_thread(RECORD_BATCHES_PER_THREAD),
-            )
-            .for_each(f);
-    } else {
-        query.iter_mut().for_each(f);
-    }
-}
-
 /// The 2D pose of a `Transform`: translation x, y and the angle of the rotated x axis.
 fn pose_of(transform: &Transform) -> Option<(Vec2, f32)> {
     let (p, angle) = planar_pose(transform);
@@ -325,7 +301,7 @@ pub(crate) fn record_start(
             });
         }
         // Not reached: every component of the query is stored in tables. Kept so that a
-        // change of storage would cost speed, not correctness.
+        // change of storage would cost speed (one thread), not correctness.
         Err(_) => {
             let record =
                 |(transform, mut sweep, enabled): (Ref<Transform>, Mut<Sweep>, &CcdEnabled)| {
@@ -336,7 +312,7 @@ pub(crate) fn record_start(
                         enabled.0,
                     );
                 };
-            for_each_body(&config, &mut bodies, record);
+            bodies.iter_mut().for_each(record);
         }
     }
 }
@@ -422,16 +398,15 @@ pub(crate) fn record_end(
             let len = piece_len(pool, total);
             let mut pieces = Pieces::new();
             for (transforms, sweeps, velocities) in &mut tables {
-                let (transforms, velocities) = (*transforms, *velocities);
+                let transforms: &[Transform] = transforms;
+                // A table has all of `Velocity` or none: its pieces likewise.
+                let mut velocities = velocities.map(|v| v.chunks(len));
                 let sweeps = sweeps.bypass_change_detection();
                 pieces.extend(
                     sweeps
                         .chunks_mut(len)
                         .zip(transforms.chunks(len))
-                        .enumerate()
-                        .map(|(k, (s, t))| {
-                            (s, t, velocities.map(|v| &v[k * len..k * len + t.len()]))
-                        }),
+                        .map(|(s, t)| (s, t, velocities.as_mut().and_then(Iterator::next))),
                 );
             }
             for_each_piece(
@@ -459,7 +434,7 @@ pub(crate) fn record_end(
                 |(transform, mut sweep, velocity): (&Transform, Mut<Sweep>, Option<&Velocity>)| {
                     record(transform, sweep.bypass_change_detection(), velocity);
                 };
-            for_each_body(&config, &mut bodies, record);
+            bodies.iter_mut().for_each(record);
         }
     }
 }
@@ -786,12 +761,9 @@ fn list_bodies<'a>(
 /// 10,000 bodies on two threads, broad phase 0.50 ms with 8, 0.47 with 16 or 32; paired
 /// speed-up +0.8 % with 16 (three runs of each).
 const LANES_PER_THREAD: usize = 16;
-/// Batches per thread of the passes over every body ([`for_each_body`]). Finer than the lanes:
-/// these passes are short (0.1 ms per 10,000 bodies), so the thread that wakes last must
-/// still find work left. Measured at 10,000 bodies on two threads, record passes: 0.27-0.28 ms
-/// with 8, 0.25 with 32, 0.27 with 64, 0.33 with 128.
-const RECORD_BATCHES_PER_THREAD: usize = 32;
-/// Pieces per worker of the record passes when they split over the pool ([`for_each_piece`]).
+/// Pieces per worker of the record passes when they split over the pool ([`for_each_piece`]):
+/// at 10,000 bodies on two workers, pieces of about 310 bodies, 5 µs each, so the workers
+/// finish within about 5 µs of each other.
 const RECORD_PIECES_PER_WORKER: usize = 16;
 /// Fewest bodies that need an angle for a record pass to split over the pool.
 ///
@@ -806,8 +778,9 @@ const RECORD_TABLES: usize = 8;
 /// Pieces a record pass keeps on the stack (more spill to the heap): on the pool about
 /// [`RECORD_PIECES_PER_WORKER`] per worker, plus one per table boundary.
 const RECORD_PIECES: usize = 64;
-/// Fewest bodies in a batch of those passes: smaller batches cost more than they save
-/// (1,000 bodies on two threads: 0.075 ms in 64 batches, 0.051 in 8).
+/// Fewest bodies in a piece of a record pass on the pool: smaller ones cost more than they
+/// save (measured with Bevy's `par_iter` before the pieces: 1,000 bodies on two threads,
+/// 0.075 ms in 64 batches, 0.051 in 8).
 const RECORD_MIN_BATCH: usize = 128;
 /// Fewest bodies in a lane: below this a task costs more than it saves.
 const MIN_LANE_LEN: usize = 64;
