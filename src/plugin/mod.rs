@@ -211,8 +211,14 @@ impl Plugin for CcdPlugin {
 #[derive(SystemSet, Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum CcdSystems {
     /// Records the start pose of every CCD body.
+    ///
+    /// With [`CcdConfig::parallel`], split over the pool only when 4,096 or more bodies'
+    /// `Transform`s changed since the last step: the others' start is copied from where the
+    /// last step left them, too little work to share.
     RecordStart,
     /// Records the end pose the user's code left.
+    ///
+    /// With [`CcdConfig::parallel`], split over the pool from 4,096 bodies.
     RecordEnd,
     /// Keeps the static hierarchy current and gathers candidate targets per body.
     BroadPhase,
