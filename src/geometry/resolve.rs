@@ -67,8 +67,8 @@ pub struct StaticItem {
     pub angle: f32,
 }
 
-/// Fewest targets for which [`StaticSet::touch`] is used: 4,096 targets' records (152 bytes
-/// each) take 608 KiB, more than half of a core's L2 cache (1 MiB on the bench machine), which
+/// Fewest targets for which [`StaticSet::touch`] is used: 4,096 targets' records (148 bytes
+/// each) take 592 KiB, more than half of a core's L2 cache (1 MiB on the bench machine), which
 /// the step's own data shares. Only speed depends on it.
 const TOUCH_MIN_TARGETS: usize = 4096;
 
@@ -76,17 +76,16 @@ const TOUCH_MIN_TARGETS: usize = 4096;
 #[derive(Clone, Debug, Default)]
 pub struct StaticSet {
     items: Vec<StaticItem>,
-    /// Per target, what every pair test needs of it (index as `items`).
-    frames: Vec<TargetFrame>,
-    /// Per target, what ordering a body's candidates needs of it (index as `items`).
-    keys: Vec<TargetKey>,
+    /// Per target, what ordering a body's candidates and every pair test need of it (index
+    /// as `items`), one cache line each.
+    records: Vec<TargetRecord>,
     bvh: Bvh,
     scratch: Vec<(u32, Aabb)>,
 }
 
 impl StaticSet {
-    /// Whether [`Self::touch`] pays: the per-target records (152 bytes a target: key 36,
-    /// frame 32 and shape 84) outgrow a core's L2 cache (1 MiB on the bench machine, shared
+    /// Whether [`Self::touch`] pays: the per-target records (148 bytes a target: the
+    /// [`TargetRecord`] line, 64, and the shape, 84) outgrow a core's L2 cache (1 MiB on the bench machine, shared
     /// with the step's own data) from a few thousand targets on. Below that they stay cached
     /// from step to step and touching them first is only extra work (measured +1 % at 1,000
     /// targets).
@@ -94,8 +93,8 @@ impl StaticSet {
         self.items.len() >= TOUCH_MIN_TARGETS
     }
 
-    /// Loads one word of each record a pair test reads of every target in `targets` (its key,
-    /// frame and shape) and returns them folded together, for the caller to pass to
+    /// Loads one word of each record a pair test reads of every target in `targets` (its
+    /// [`TargetRecord`] and its shape) and returns them folded together, for the caller to pass to
     /// `black_box` so that the loads stay. A software prefetch without `unsafe`: done for a
     /// batch of bodies before their pair tests, the loads are independent, so their cache
     /// misses overlap instead of each stalling a test in turn (time of impact at 50,000
@@ -104,11 +103,8 @@ impl StaticSet {
         let mut folded = 0u32;
         for &i in targets {
             let i = i as usize;
-            if let (Some(key), Some(frame), Some(item)) =
-                (self.keys.get(i), self.frames.get(i), self.items.get(i))
-            {
-                folded ^=
-                    key.radius.to_bits() ^ frame.core.min.x.to_bits() ^ item.position.x.to_bits();
+            if let (Some(record), Some(item)) = (self.records.get(i), self.items.get(i)) {
+                folded ^= record.key.radius.to_bits() ^ item.position.x.to_bits();
             }
         }
         folded
@@ -118,15 +114,9 @@ impl StaticSet {
     pub fn rebuild(&mut self, items: impl IntoIterator<Item = StaticItem>) {
         self.items.clear();
         self.items.extend(items);
-        self.frames.clear();
-        self.frames.extend(self.items.iter().map(TargetFrame::new));
-        self.keys.clear();
-        self.keys.extend(
-            self.items
-                .iter()
-                .zip(&self.frames)
-                .map(|(item, frame)| TargetKey::new(item, frame)),
-        );
+        self.records.clear();
+        self.records
+            .extend(self.items.iter().map(TargetRecord::new));
         self.scratch.clear();
         for (i, item) in self.items.iter().enumerate() {
             let pose = Pose::new(item.position, item.angle);
@@ -172,11 +162,11 @@ struct TargetFrame {
     core_is_box: bool,
 }
 
-/// What [`reach_interval`] needs of a target, packed in 36 bytes: every candidate of the broad
-/// phase goes through that test and most stop there, so this is what the solve reads of most
-/// targets. With 100,000 statics the targets are far apart in memory and each read of
-/// [`StaticItem`] and [`TargetFrame`] (three cache lines) is a miss; this one line is read
-/// instead.
+/// What [`reach_interval`] needs of a target, packed in 36 bytes (at the head of its
+/// [`TargetRecord`]): every candidate of the broad phase goes through that test and most stop
+/// there, so this is what the solve reads of most targets. With 100,000 statics the targets
+/// are far apart in memory and each read of [`StaticItem`] (two cache lines) is a miss; this
+/// one line is read instead.
 #[derive(Clone, Copy, Debug)]
 struct TargetKey {
     position: Vec2,
@@ -194,6 +184,49 @@ impl TargetKey {
             rotation: frame.toi.rotation(),
             core: frame.core,
             radius: item.proxy.radius,
+        }
+    }
+}
+
+/// A target's [`TargetKey`] and the rest of its [`TargetFrame`] (the two share the rotation
+/// and the core's bounds), in one cache line: the ordering test reads the key of every
+/// candidate, and the pair test the frame of those it keeps. Kept apart (36 and 32 bytes), a
+/// key straddled two lines for about half the targets and the frame was a line more; with
+/// 100,000 statics each is a miss.
+///
+/// Measured (`SCENE_PROFILE`, alternating builds): time of impact at 10k × 100k clamp
+/// 2.70-2.76 → 2.48-2.51 ms, at 50k × 100k sub-step 30.9-31.8 → 29.4-31.2 ms (five pairs);
+/// 1,000 statics and 1k × 100k unchanged within the noise.
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(64))]
+struct TargetRecord {
+    key: TargetKey,
+    /// [`BodyFrame::reach`] of the target's frame.
+    reach: f32,
+    /// [`TargetFrame::core_is_box`].
+    core_is_box: bool,
+}
+
+// One line: a key that grew past 59 bytes would make every record two.
+const _: () = assert!(size_of::<TargetRecord>() == 64);
+
+impl TargetRecord {
+    fn new(item: &StaticItem) -> Self {
+        let frame = TargetFrame::new(item);
+        Self {
+            key: TargetKey::new(item, &frame),
+            reach: frame.toi.reach(),
+            core_is_box: frame.core_is_box,
+        }
+    }
+
+    /// The frame, the same values [`TargetFrame::new`] gave.
+    #[inline]
+    fn frame(&self) -> TargetFrame {
+        TargetFrame {
+            toi: BodyFrame::from_parts(self.key.rotation, self.reach),
+            core: self.key.core,
+            core_is_box: self.core_is_box,
         }
     }
 }
@@ -900,7 +933,7 @@ pub fn solve_body(
         let short = list.len() <= ORDERED_TARGETS;
         if short {
             for &index in list {
-                let Some(key) = statics.keys.get(index as usize) else {
+                let Some(key) = statics.records.get(index as usize).map(|r| &r.key) else {
                     continue;
                 };
                 if let Some(window) = reach_interval(sweep_reach, &body.proxy, &sweep, key, slop) {
@@ -927,7 +960,7 @@ pub fn solve_body(
             };
             let (Some(target), Some(frame)) = (
                 statics.items.get(index as usize),
-                statics.frames.get(index as usize),
+                statics.records.get(index as usize).map(TargetRecord::frame),
             ) else {
                 continue;
             };
@@ -952,7 +985,7 @@ pub fn solve_body(
                 &sweep,
                 body_frame,
                 target,
-                frame,
+                &frame,
                 slop,
                 interval,
             ) {

@@ -217,6 +217,17 @@ impl BodyFrame {
         self.q0
     }
 
+    /// The largest distance of a core point from the centre of mass (m).
+    pub(crate) fn reach(&self) -> f32 {
+        self.reach
+    }
+
+    /// A frame from its rotation and reach, as [`Self::rotation`] and [`Self::reach`] gave
+    /// them.
+    pub(crate) fn from_parts(q0: Rot, reach: f32) -> Self {
+        Self { q0, reach }
+    }
+
     /// The same, with the reach already known (`proxy.max_distance_from(local_center)`).
     pub(crate) fn with_reach(sweep: &Sweep, reach: f32) -> Self {
         Self {
