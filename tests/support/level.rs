@@ -2,11 +2,12 @@
 //! `tests/level_small_pool.rs` (a pool of one thread): a generated level through the plugin,
 //! checked against the geometry layer, serially and on the pool.
 
+use bevy_app::App;
 use bevy_app::{FixedFirst, FixedPostUpdate};
 use bevy_ccd::geometry::{self, BodyState, ImpactRecord, LINEAR_SLOP, ResolveMode, SolveSettings};
 use bevy_ccd::plugin::CcdWorkspace;
 use bevy_ccd::prelude::*;
-use bevy_ccd::testing::{LevelConfig, generate_level, headless_app, spawn_level};
+use bevy_ccd::testing::{Arena, Level, LevelConfig, generate_level, headless_app, spawn_level};
 use bevy_transform::prelude::Transform;
 use glam::{Quat, Vec2};
 
@@ -15,14 +16,20 @@ const DT: f32 = 1.0 / 60.0;
 /// Per body: final translation and rotation, the outcome, and the velocity.
 type Outcome = (Vec2, Quat, TimeOfImpact, Velocity);
 
-/// One step of the level through the plugin: each body's outcome, and what the geometry
-/// layer gives for the same inputs.
-fn step_level(resolution: Resolution, parallel: bool) -> (Vec<Outcome>, Vec<Outcome>) {
+/// A seeded level of `bodies` and `statics`, spawned with CCD into a headless app stepping
+/// `DT` with the given resolution, on the pool or not.
+fn level_app(
+    bodies: usize,
+    statics: usize,
+    seed: u64,
+    resolution: Resolution,
+    parallel: bool,
+) -> (Level, App, Arena) {
     let level = generate_level(&LevelConfig {
-        bodies: 600,
-        statics: 5_000,
+        bodies,
+        statics,
         timestep: DT,
-        seed: 11,
+        seed,
         ..Default::default()
     });
     let mut app = headless_app(DT as f64);
@@ -33,6 +40,13 @@ fn step_level(resolution: Resolution, parallel: bool) -> (Vec<Outcome>, Vec<Outc
         ..Default::default()
     });
     let arena = spawn_level(app.world_mut(), &level, true);
+    (level, app, arena)
+}
+
+/// One step of the level through the plugin: each body's outcome, and what the geometry
+/// layer gives for the same inputs.
+fn step_level(resolution: Resolution, parallel: bool) -> (Vec<Outcome>, Vec<Outcome>) {
+    let (level, mut app, arena) = level_app(600, 5_000, 11, resolution, parallel);
     let world = app.world_mut();
     world.run_schedule(FixedFirst);
     for (&entity, body) in arena.bodies.iter().zip(&level.bodies) {
@@ -170,20 +184,8 @@ const RECORD_BODIES: usize = 5_003;
 /// several tables (a third without a `Velocity`, a fifth disabled), with teleports and
 /// non-finite poses along the way: the record passes' every path.
 fn record_sweeps(parallel: bool) -> Vec<[u32; 10]> {
-    let level = generate_level(&LevelConfig {
-        bodies: RECORD_BODIES,
-        statics: 100,
-        timestep: DT,
-        seed: 12,
-        ..Default::default()
-    });
-    let mut app = headless_app(DT as f64);
-    app.insert_resource(CcdConfig {
-        timestep: Some(DT),
-        parallel,
-        ..Default::default()
-    });
-    let arena = spawn_level(app.world_mut(), &level, true);
+    let (level, mut app, arena) =
+        level_app(RECORD_BODIES, 100, 12, Resolution::default(), parallel);
     let world = app.world_mut();
     for (k, &entity) in arena.bodies.iter().enumerate() {
         let mut body = world.entity_mut(entity);
