@@ -85,19 +85,19 @@ pub struct StaticSet {
 
 impl StaticSet {
     /// Whether [`Self::touch`] pays: the per-target records (148 bytes a target: the
-    /// [`TargetRecord`] line, 64, and the shape, 84) outgrow a core's L2 cache (1 MiB on the bench machine, shared
-    /// with the step's own data) from a few thousand targets on. Below that they stay cached
-    /// from step to step and touching them first is only extra work (measured +1 % at 1,000
-    /// targets).
+    /// [`TargetRecord`] line, 64, and the shape, 84) outgrow a core's L2 cache (1 MiB on the
+    /// bench machine, shared with the step's own data) from a few thousand targets on. Below
+    /// that they stay cached from step to step and touching them first is only extra work
+    /// (measured +1 % at 1,000 targets).
     pub(crate) fn worth_touching(&self) -> bool {
         self.items.len() >= TOUCH_MIN_TARGETS
     }
 
     /// Loads one word of each record a pair test reads of every target in `targets` (its
-    /// [`TargetRecord`] and its shape) and returns them folded together, for the caller to pass to
-    /// `black_box` so that the loads stay. A software prefetch without `unsafe`: done for a
-    /// batch of bodies before their pair tests, the loads are independent, so their cache
-    /// misses overlap instead of each stalling a test in turn (time of impact at 50,000
+    /// [`TargetRecord`] and its shape) and returns them folded together, for the caller to
+    /// pass to `black_box` so that the loads stay. A software prefetch without `unsafe`: done
+    /// for a batch of bodies before their pair tests, the loads are independent, so their
+    /// cache misses overlap instead of each stalling a test in turn (time of impact at 50,000
     /// bodies and 100,000 statics −10 %).
     pub(crate) fn touch(&self, targets: &[u32]) -> u32 {
         let mut folded = 0u32;
