@@ -1883,7 +1883,7 @@ fn probe<const K: usize>(
 
 /// Systems ordered against the phase sets in the plugin's schedule run before or after the
 /// whole step; systems added to `CcdSchedule` run between two phases. On one thread and on
-/// the pool (where `CcdSchedule` runs on a pool thread).
+/// the pool (where the phases run apart, as systems of the test sit between them).
 #[test]
 fn user_systems_run_around_the_step_and_between_its_phases() {
     for parallel in [false, true] {
@@ -1927,4 +1927,101 @@ fn user_systems_run_around_the_step_and_between_its_phases() {
             "parallel {parallel}"
         );
     }
+}
+
+/// On the pool, the broad phase solves and writes back in its own parallel region only when
+/// `CcdSchedule` holds nothing but the plugin's phases; the runner checks that every step. A
+/// run condition on a phase is honoured: with the time of impact switched off, a ball flies
+/// through the wall it would hit.
+#[test]
+fn phases_fuse_only_when_nothing_runs_between_them() {
+    #[derive(Resource)]
+    struct SolveOn(bool);
+    let mut app = app_with(Resolution::Clamp, Vec2::ZERO, true);
+    app.insert_resource(CcdConfig {
+        resolution: Resolution::Clamp,
+        parallel: true,
+        ..Default::default()
+    })
+    .insert_resource(SolveOn(true));
+    // Enough bodies for several lanes (at least 64 each): 299 flying free above the wall,
+    // and one that crosses it in every step.
+    spawn_wall(&mut app, Vec2::new(0.0, 0.0), 0.05, 1.0);
+    for k in 0..299 {
+        let at = Vec2::new(-10.0 + 0.05 * k as f32, 5.0);
+        spawn_ball(&mut app, 0.01, at, Vec2::new(1.0, 0.0));
+    }
+    let hitting = spawn_ball(&mut app, 0.1, Vec2::new(-1.0, 0.0), Vec2::new(120.0, 0.0));
+    let fused = |app: &App| app.world().resource::<CcdWorkspace>().last_step_fused();
+    // Back to the start, at full speed: the next step crosses the wall (2 m a step).
+    let relaunch = |app: &mut App| {
+        let world = app.world_mut();
+        *world.get_mut::<Transform>(hitting).expect("ball") = Transform::from_xyz(-1.0, 0.0, 0.0);
+        world.get_mut::<Velocity>(hitting).expect("ball").linear = Vec2::new(120.0, 0.0);
+    };
+    step(&mut app);
+    assert!(fused(&app), "nothing between the phases: one region");
+    assert_eq!(toi(&app, hitting).status, CcdStatus::Hit);
+    assert!(position(&app, hitting).x < 0.0, "stopped before the wall");
+
+    // A run condition on a phase: the phases run apart, and the condition holds.
+    app.configure_sets(
+        CcdSchedule,
+        CcdSystems::TimeOfImpact.run_if(|on: Res<SolveOn>| on.0),
+    );
+    relaunch(&mut app);
+    step(&mut app);
+    assert!(!fused(&app), "a run condition on a phase keeps them apart");
+    assert_eq!(toi(&app, hitting).status, CcdStatus::Hit);
+    assert!(position(&app, hitting).x < 0.0, "stopped before the wall");
+    app.world_mut().resource_mut::<SolveOn>().0 = false;
+    relaunch(&mut app);
+    step(&mut app);
+    assert!(!fused(&app));
+    assert!(
+        position(&app, hitting).x > 0.5,
+        "with the time of impact off, the ball flies through the wall"
+    );
+}
+
+/// A system of the user's anywhere in `CcdSchedule`, even after the last phase, keeps the
+/// phases apart (the check counts systems, it does not read their order); removing nothing,
+/// the results stay those of the fused step, bit for bit.
+#[test]
+fn a_user_system_in_the_ccd_schedule_keeps_the_phases_apart() {
+    let run = |extra: bool| {
+        let mut app = app_with(Resolution::SubStep { max_substeps: 4 }, Vec2::ZERO, true);
+        app.insert_resource(CcdConfig {
+            resolution: Resolution::SubStep { max_substeps: 4 },
+            parallel: true,
+            ..Default::default()
+        });
+        if extra {
+            app.add_systems(CcdSchedule, (|| {}).after(CcdSystems::Resolve));
+        }
+        spawn_wall(&mut app, Vec2::new(0.0, 0.0), 0.05, 1.0);
+        let balls: Vec<Entity> = (0..300)
+            .map(|k| {
+                let at = Vec2::new(-1.0 - 0.01 * k as f32, -0.9 + 0.006 * k as f32);
+                spawn_ball(&mut app, 0.05, at, Vec2::new(90.0 + k as f32, 0.0))
+            })
+            .collect();
+        let mut poses = Vec::new();
+        for _ in 0..3 {
+            step(&mut app);
+            assert_eq!(
+                app.world().resource::<CcdWorkspace>().last_step_fused(),
+                !extra
+            );
+            poses.extend(balls.iter().map(|&b| (position(&app, b), toi(&app, b))));
+        }
+        poses
+    };
+    let fused = run(false);
+    let hits = fused
+        .iter()
+        .filter(|(_, t)| t.status == CcdStatus::Hit)
+        .count();
+    assert!(hits >= 100, "the balls should hit the wall, {hits} did");
+    assert!(fused == run(true), "fused and apart differ");
 }

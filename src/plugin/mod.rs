@@ -10,10 +10,16 @@ use bevy_app::prelude::*;
 use bevy_app::{FixedFirst, FixedPostUpdate};
 use bevy_ecs::intern::Interned;
 use bevy_ecs::prelude::*;
-use bevy_ecs::schedule::{ScheduleLabel, SingleThreadedExecutor};
+use bevy_ecs::schedule::graph::DiGraph;
+use bevy_ecs::schedule::{
+    FlattenedDependencies, NodeId, ScheduleBuildError, ScheduleBuildPass, ScheduleGraph,
+    ScheduleLabel, SingleThreadedExecutor, SystemKey, SystemSetKey,
+};
+use bevy_platform::hash::FixedHasher;
 use bevy_reflect::prelude::*;
 use bevy_time::{Fixed, Time};
 use glam::Vec2;
+use indexmap::IndexSet;
 
 pub use components::{
     BodyMass, CcdEnabled, CcdError, CcdStatus, Collider, Friction, Impact, Restitution,
@@ -109,6 +115,14 @@ pub struct CcdStartSchedule;
 ///
 /// On the single-threaded executor, on the thread that runs the plugin's main schedule.
 ///
+/// While this schedule holds the plugin's phases and nothing else (no system of yours, no run
+/// condition), the broad phase's system also solves and writes back, in one parallel region
+/// with the gathering: each lane of bodies is gathered and solved at once by whichever thread
+/// takes it, which saves a wake-up of the pool and the wait for the gather's last lane. The
+/// results are the same bits either way. A system or a run condition of yours added here
+/// keeps the phases apart, so that it sees each phase's work done and the next one's not
+/// begun; [`CcdWorkspace::last_step_fused`] tells which way the last step ran.
+///
 /// ```
 /// use bevy_app::prelude::*;
 /// use bevy_ccd::prelude::*;
@@ -142,6 +156,56 @@ fn run_schedule(world: &mut World) {
     let _ = world.try_run_schedule(CcdSchedule);
 }
 
+/// The systems the plugin adds to [`CcdSchedule`], one per phase after `RecordStart`.
+const PHASE_SYSTEMS: usize = 4;
+
+/// A build pass of [`CcdSchedule`]: tells the workspace whether the schedule holds the
+/// plugin's phase systems and nothing else (no other system, no run condition on a system or
+/// a set). Then nothing of the user's can run between two phases, and the broad phase may
+/// solve and write back in its own parallel region, one region instead of two per step.
+///
+/// A build pass, because it runs at every build of the schedule (also after systems are
+/// added between steps) and sees the run conditions, which the built schedule keeps out of
+/// reach of the public API.
+#[derive(Debug)]
+struct PhaseCheck;
+
+impl ScheduleBuildPass for PhaseCheck {
+    type EdgeOptions = ();
+
+    fn add_dependency(&mut self, _: NodeId, _: NodeId, _: Option<&Self::EdgeOptions>) {}
+
+    fn collapse_set(
+        &mut self,
+        _: SystemSetKey,
+        _: &IndexSet<SystemKey, FixedHasher>,
+        _: &DiGraph<NodeId>,
+    ) -> impl Iterator<Item = (NodeId, NodeId)> {
+        core::iter::empty()
+    }
+
+    fn build(
+        &mut self,
+        world: &mut World,
+        graph: &mut ScheduleGraph,
+        _: FlattenedDependencies<'_>,
+    ) -> Result<(), ScheduleBuildError> {
+        let only_phases = graph.systems.len() == PHASE_SYSTEMS
+            && graph
+                .systems
+                .iter()
+                .all(|(_, _, conditions)| conditions.is_empty())
+            && graph
+                .system_sets
+                .iter()
+                .all(|(_, _, conditions)| conditions.is_empty());
+        if let Some(mut workspace) = world.get_resource_mut::<CcdWorkspace>() {
+            workspace.bypass_change_detection().phases_only = only_phases;
+        }
+        Ok(())
+    }
+}
+
 impl Plugin for CcdPlugin {
     fn build(&self, app: &mut App) {
         app.init_resource::<CcdConfig>()
@@ -164,6 +228,9 @@ impl Plugin for CcdPlugin {
                 schedule.set_executor(SingleThreadedExecutor::new());
             });
         }
+        app.edit_schedule(CcdSchedule, |schedule| {
+            schedule.add_build_pass(PhaseCheck);
+        });
         app.configure_sets(
             CcdSchedule,
             (
@@ -225,6 +292,9 @@ pub enum CcdSystems {
     /// Runs the time of impact and the resolution of every body (in parallel), and writes
     /// their poses, velocities and outcomes ([`TimeOfImpact`]) back to the world: on the
     /// pool, each finished lane of bodies is written while the others are still solved.
+    ///
+    /// On the pool, while [`CcdSchedule`] holds only the plugin's phases, the broad phase's
+    /// system has done this work already, in its own parallel region (see there).
     TimeOfImpact,
     /// Sends the impact messages ([`CcdImpact`]). Systems ordered after it see every
     /// component and message of the step.

@@ -8,6 +8,7 @@ use bevy_ccd::geometry::{self, BodyState, ImpactRecord, LINEAR_SLOP, ResolveMode
 use bevy_ccd::plugin::CcdWorkspace;
 use bevy_ccd::prelude::*;
 use bevy_ccd::testing::{Arena, Level, LevelConfig, generate_level, headless_app, spawn_level};
+use bevy_ecs::schedule::IntoScheduleConfigs;
 use bevy_transform::prelude::Transform;
 use glam::{Quat, Vec2};
 
@@ -43,10 +44,31 @@ fn level_app(
     (level, app, arena)
 }
 
+/// Puts a system of the test's between the broad phase and the time of impact, so that the
+/// phases run apart on the pool too.
+fn keep_phases_apart(app: &mut App) {
+    app.add_systems(
+        CcdSchedule,
+        (|| {})
+            .after(CcdSystems::BroadPhase)
+            .before(CcdSystems::TimeOfImpact),
+    );
+}
+
 /// One step of the level through the plugin: each body's outcome, and what the geometry
 /// layer gives for the same inputs.
-fn step_level(resolution: Resolution, parallel: bool) -> (Vec<Outcome>, Vec<Outcome>) {
+/// `phases_only`: nothing but the plugin's phases in `CcdSchedule`, so that on the pool the
+/// broad phase solves and writes back in its own region; otherwise a system of the test's sits
+/// between the broad phase and the time of impact, and the phases run apart.
+fn step_level(
+    resolution: Resolution,
+    parallel: bool,
+    phases_only: bool,
+) -> (Vec<Outcome>, Vec<Outcome>) {
     let (level, mut app, arena) = level_app(600, 5_000, 11, resolution, parallel);
+    if !phases_only {
+        keep_phases_apart(&mut app);
+    }
     let world = app.world_mut();
     world.run_schedule(FixedFirst);
     for (&entity, body) in arena.bodies.iter().zip(&level.bodies) {
@@ -55,6 +77,11 @@ fn step_level(resolution: Resolution, parallel: bool) -> (Vec<Outcome>, Vec<Outc
             Transform::from_xyz(p.x, p.y, 0.0).with_rotation(Quat::from_rotation_z(a));
     }
     world.run_schedule(FixedPostUpdate);
+    assert_eq!(
+        world.resource::<CcdWorkspace>().last_step_fused(),
+        parallel && phases_only,
+        "the phases fuse on the pool exactly when nothing runs between them"
+    );
 
     let statics = world.resource::<CcdWorkspace>().statics().clone();
     assert_eq!(statics.items().len(), 5_000, "every static is a target");
@@ -149,10 +176,12 @@ fn step_level(resolution: Resolution, parallel: bool) -> (Vec<Outcome>, Vec<Outc
     (plugin, direct)
 }
 
-/// Steps the level serially and on the pool: both must equal the geometry layer.
+/// Steps the level serially and on the pool, with the phases fused and apart: each must
+/// equal the geometry layer.
 pub fn check(resolution: Resolution) {
-    let (serial, direct) = step_level(resolution, false);
-    let (parallel, _) = step_level(resolution, true);
+    let (serial, direct) = step_level(resolution, false, true);
+    let (parallel, _) = step_level(resolution, true, true);
+    let (apart, _) = step_level(resolution, true, false);
     let hits = serial
         .iter()
         .filter(|o| o.2.status == CcdStatus::Hit)
@@ -173,7 +202,11 @@ pub fn check(resolution: Resolution) {
         differ, 0,
         "bodies whose plugin outcome differs from the geometry layer's"
     );
-    assert!(serial == parallel, "one thread and two threads differ");
+    assert!(serial == parallel, "one thread and the fused phases differ");
+    assert!(
+        serial == apart,
+        "one thread and the phases apart on the pool differ"
+    );
 }
 
 /// Bodies enough for the record passes to split over the pool (they split from 2,048), and
@@ -183,9 +216,13 @@ const RECORD_BODIES: usize = 5_003;
 /// Every body's `Sweep`, as bits, after each of three steps of a level whose bodies lie in
 /// several tables (a third without a `Velocity`, a fifth disabled), with teleports and
 /// non-finite poses along the way: the record passes' every path.
-fn record_sweeps(parallel: bool) -> Vec<[u32; 10]> {
+/// `phases_only` as in [`step_level`].
+fn record_sweeps(parallel: bool, phases_only: bool) -> Vec<[u32; 10]> {
     let (level, mut app, arena) =
         level_app(RECORD_BODIES, 100, 12, Resolution::default(), parallel);
+    if !phases_only {
+        keep_phases_apart(&mut app);
+    }
     let world = app.world_mut();
     for (k, &entity) in arena.bodies.iter().enumerate() {
         let mut body = world.entity_mut(entity);
@@ -221,6 +258,10 @@ fn record_sweeps(parallel: bool) -> Vec<[u32; 10]> {
             *world.get_mut::<Transform>(entity).expect("body") = pose(p, a);
         }
         world.run_schedule(FixedPostUpdate);
+        assert_eq!(
+            world.resource::<CcdWorkspace>().last_step_fused(),
+            parallel && phases_only
+        );
         for &entity in &arena.bodies {
             let s = world.get::<Sweep>(entity).expect("body");
             sweeps.push([
@@ -243,8 +284,9 @@ fn record_sweeps(parallel: bool) -> Vec<[u32; 10]> {
 /// The record passes split over the pool write every body's `Sweep` exactly as they do on one
 /// thread, bit for bit.
 pub fn check_records() {
-    let serial = record_sweeps(false);
-    let parallel = record_sweeps(true);
+    let serial = record_sweeps(false, true);
+    let parallel = record_sweeps(true, true);
+    let apart = record_sweeps(true, false);
     let recorded = serial.iter().filter(|s| s[9] == 1).count();
     let turning = serial.iter().filter(|s| s[9] == 1 && s[2] != s[5]).count();
     eprintln!(
@@ -259,5 +301,10 @@ pub fn check_records() {
     assert_eq!(
         differ, 0,
         "body-steps whose sweep differs between one thread and the pool"
+    );
+    let differ = serial.iter().zip(&apart).filter(|(s, p)| s != p).count();
+    assert_eq!(
+        differ, 0,
+        "body-steps whose sweep differs between one thread and the pool, phases apart"
     );
 }
