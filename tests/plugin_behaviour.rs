@@ -1930,9 +1930,9 @@ fn user_systems_run_around_the_step_and_between_its_phases() {
 }
 
 /// On the pool, the broad phase solves and writes back in its own parallel region only when
-/// `CcdSchedule` holds nothing but the plugin's phases; the runner checks that every step. A
-/// run condition on a phase is honoured: with the time of impact switched off, a ball flies
-/// through the wall it would hit.
+/// `CcdSchedule` holds nothing but the plugin's phases. The check runs at every build of the
+/// schedule, so a run condition added between steps counts, and it is honoured: with the time
+/// of impact switched off, a ball flies through the wall it would hit.
 #[test]
 fn phases_fuse_only_when_nothing_runs_between_them() {
     #[derive(Resource)]
@@ -1985,8 +1985,8 @@ fn phases_fuse_only_when_nothing_runs_between_them() {
 }
 
 /// A system of the user's anywhere in `CcdSchedule`, even after the last phase, keeps the
-/// phases apart (the check counts systems, it does not read their order); removing nothing,
-/// the results stay those of the fused step, bit for bit.
+/// phases apart (the check counts systems, it does not read their order), and the results
+/// equal the fused steps', bit for bit.
 #[test]
 fn a_user_system_in_the_ccd_schedule_keeps_the_phases_apart() {
     let run = |extra: bool| {

@@ -578,8 +578,8 @@ fn update_statics(workspace: &mut CcdWorkspace, watch: &mut StaticWatch) {
 
 /// [`super::CcdSystems::BroadPhase`]: keep the static hierarchy current ([`update_statics`]),
 /// then gather every enabled body with valid data and query the hierarchy with its swept
-/// bound. Bodies with bad data get an error (written back by [`solve_bodies`]) and are left
-/// alone.
+/// bound. Bodies with bad data get an error (written back with the solve's outcomes) and are
+/// left alone.
 ///
 /// On the pool, when nothing of the user's runs between the phases (`phases_only`), the
 /// lanes are also solved and written back here, in the same region, as [`solve_bodies`]
@@ -624,7 +624,7 @@ pub(crate) fn gather_bodies(
     };
     workspace.settings = Some(settings);
     // One parallel region for the gather, the solve and the write-back, when nothing of the
-    // user's runs between these phases (see `may_fuse`) and there is more than one lane.
+    // user's runs between these phases (`phases_only`) and there is more than one lane.
     let fused = workspace.phases_only && pool.is_some() && most > lane_len;
     workspace.solved = fused;
     workspace.fused = fused;
@@ -915,9 +915,9 @@ fn fill(body: &mut BodyEntry) -> Result<(), CcdError> {
 /// On the pool, the lanes are handed out one at a time from a shared counter, to the
 /// calling thread and to one helper task per pool thread ([`hand_out`]); the calling thread,
 /// the only one that may write components, writes each finished lane back between its own
-/// lanes. The write-back
-/// (about 50 ns a visited body, 0.09-0.11 ms at 10,000 bodies) so overlaps the solve instead
-/// of following it on one thread while the others wait (it was a system of its own, serial).
+/// lanes. The write-back (about 50 ns a visited body, 0.09-0.11 ms at 10,000 bodies) so
+/// overlaps the solve instead of following it on one thread while the others wait (it was a
+/// system of its own, serial).
 /// Component writes commute (one body, one lane), so the order lanes finish in changes
 /// nothing; the messages keep the gathering order ([`write_back`]).
 pub(crate) fn solve_bodies(
