@@ -12,6 +12,8 @@
 //! # What runs
 //!
 //! - `ours`: [`Bvh::build`] (binned SAH, leaves of up to 16) and [`Bvh::query`].
+//! - `ours-group`: the same queries through [`Bvh::query_group`], [`QUERY_GROUP`] walked side
+//!   by side (one at a time below 4,096 items).
 //! - `obvhs-*`: `obvhs::bvh2::Bvh2` built as `obvhs::bvh2::builder::build_bvh2` does (PLOC,
 //!   reinsertion, leaf collapse) with the `very_fast_build`, `fast_build` and `medium_build`
 //!   presets, but reusing the builder and the tree between builds, as ours does. Boxes are 3D
@@ -30,7 +32,7 @@
 use std::hint::black_box;
 use std::time::Duration;
 
-use bevy_ccd::geometry::{Aabb, Bvh};
+use bevy_ccd::geometry::{Aabb, Bvh, QUERY_GROUP};
 use criterion::{Criterion, criterion_group, criterion_main};
 use glam::{Vec2, Vec3A};
 use obvhs::BvhBuildParams;
@@ -249,6 +251,19 @@ fn bench_size(c: &mut Criterion, n: usize, label: &str) {
             for q in &queries {
                 out.clear();
                 ours.query(black_box(q), &mut out);
+                total += out.len();
+            }
+            total
+        })
+    });
+    // The same queries, `QUERY_GROUP` at a time, walked side by side.
+    let mut counts = [0u32; QUERY_GROUP];
+    group.bench_function("ours-group", |bench| {
+        bench.iter(|| {
+            let mut total = 0;
+            for q in queries.chunks(QUERY_GROUP) {
+                out.clear();
+                ours.query_group(black_box(q), &mut out, &mut counts);
                 total += out.len();
             }
             total

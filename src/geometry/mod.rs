@@ -11,7 +11,7 @@ mod shape;
 mod sweep;
 mod toi;
 
-pub use bvh::Bvh;
+pub use bvh::{Bvh, QUERY_GROUP};
 pub use constants::{LINEAR_SLOP, MAX_POLYGON_VERTICES, MAX_WORLD_COORDINATE};
 pub use gjk::{DistanceInput, DistanceOutput, SimplexCache, shape_distance};
 pub use math::{Pose, Rot, atan2, cross, left_perp, right_perp};

@@ -146,6 +146,18 @@ impl StaticSet {
     pub fn candidates_in(&self, bounds: Aabb, margin: f32, out: &mut Vec<u32>) {
         self.bvh.query(&bounds.expanded(margin), out);
     }
+
+    /// [`StaticSet::candidates_in`] for several swept boxes at once (already grown by the
+    /// margin), walked side by side ([`Bvh::query_group`]): the candidates of `bounds[0]`,
+    /// then those of `bounds[1]`, … are appended to `out`, and `counts[i]` is set to how many
+    /// `bounds[i]` has.
+    ///
+    /// # Panics
+    ///
+    /// If `counts` is shorter than `bounds`.
+    pub fn candidates_group(&self, bounds: &[Aabb], out: &mut Vec<u32>, counts: &mut [u32]) {
+        self.bvh.query_group(bounds, out, counts);
+    }
 }
 
 /// What the pair tests need of a target besides its [`StaticItem`], computed once when the

@@ -19,9 +19,21 @@ use super::components::{
 };
 use super::{CcdConfig, CcdImpact, Resolution};
 use crate::geometry::{
-    self, BodyState, ImpactRecord, MAX_WORLD_COORDINATE, ResolveMode, ShapeProxy, SolveSettings,
-    StaticItem, StaticSet, solve_body,
+    self, Aabb, BodyState, ImpactRecord, MAX_WORLD_COORDINATE, QUERY_GROUP, ResolveMode,
+    ShapeProxy, SolveSettings, StaticItem, StaticSet, solve_body,
 };
+
+/// From this many bodies on, the broad phase walks [`QUERY_GROUP`] bodies' queries of the
+/// static hierarchy side by side ([`StaticSet::candidates_group`]), so that their cache
+/// misses overlap; below, one at a time.
+///
+/// Measured (`SCENE_PROFILE`, alternating builds, 100,000 statics): the broad phase is 11-16 %
+/// faster at 50,000 bodies and 16 % at 10,000, and whole steps 2-7 % faster. At 1,000 bodies
+/// the broad phase is also 8 % faster, but the time of impact after it 10 % slower (the same
+/// pair tests on the same candidates, checked; the cause was not found), so the step is
+/// 6 % slower: there the walks stay one at a time. The slow-down of the time of impact is
+/// also seen at 50,000 bodies (1 %), well below the gain.
+const GROUP_MIN_BODIES: usize = 4096;
 
 /// One CCD body of this step: what the solver needs, then what it did.
 ///
@@ -651,6 +663,12 @@ pub(crate) fn gather_bodies(
         entries.resize(most, BodyEntry::new(Entity::PLACEHOLDER, &Sweep::default()));
     }
     let statics: &StaticSet = statics;
+    // How many bodies' queries are walked side by side (see `GROUP_MIN_BODIES`).
+    let group_len = if most >= GROUP_MIN_BODIES {
+        QUERY_GROUP
+    } else {
+        1
+    };
     let work = |chunk: &mut [BodyEntry], lane: &mut Lane| {
         lane.candidates.clear();
         // Nothing of the last step survives into this one's write-back, even if the solve
@@ -658,7 +676,27 @@ pub(crate) fn gather_bodies(
         lane.impacts.clear();
         lane.hit.clear();
         lane.visit.clear();
-        for body in chunk {
+        // The bodies whose swept boxes are queried together ([`StaticSet::candidates_group`]):
+        // their indices in `chunk` and their boxes.
+        let mut group = [0usize; QUERY_GROUP];
+        let mut boxes = [Aabb::default(); QUERY_GROUP];
+        let mut counts = [0u32; QUERY_GROUP];
+        let mut grouped = 0;
+        let last = chunk.len();
+        for i in 0..=last {
+            if grouped == group_len || (i == last && grouped > 0) {
+                let mut start = lane.candidates.len();
+                statics.candidates_group(&boxes[..grouped], &mut lane.candidates, &mut counts);
+                for (&k, &count) in group[..grouped].iter().zip(&counts) {
+                    chunk[k].candidates = start as u32;
+                    chunk[k].candidate_count = count;
+                    start += count as usize;
+                }
+                grouped = 0;
+            }
+            let Some(body) = chunk.get_mut(i) else {
+                break;
+            };
             if !step_ok {
                 body.error = Some(CcdError::ZeroLengthStep);
                 continue;
@@ -678,10 +716,9 @@ pub(crate) fn gather_bodies(
                 body.error = Some(CcdError::InvalidBodyData);
                 continue;
             };
-            let start = lane.candidates.len();
-            statics.candidates_in(bounds, margin, &mut lane.candidates);
-            body.candidates = start as u32;
-            body.candidate_count = (lane.candidates.len() - start) as u32;
+            group[grouped] = i;
+            boxes[grouped] = bounds.expanded(margin);
+            grouped += 1;
         }
     };
     match pool {

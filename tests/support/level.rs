@@ -65,7 +65,10 @@ fn step_level(
     parallel: bool,
     phases_only: bool,
 ) -> (Vec<Outcome>, Vec<Outcome>) {
-    let (level, mut app, arena) = level_app(600, 5_000, 11, resolution, parallel);
+    // More bodies than the plugin's `GROUP_MIN_BODIES` (4,096) and more statics than the
+    // hierarchy's `GROUP_MIN_ITEMS` (4,096): the broad phase walks several bodies' queries side
+    // by side, and the geometry layer below queries one body at a time.
+    let (level, mut app, arena) = level_app(4_500, 5_000, 11, resolution, parallel);
     if !phases_only {
         keep_phases_apart(&mut app);
     }
