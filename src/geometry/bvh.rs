@@ -730,10 +730,7 @@ impl Bvh {
             .chunks(QUERY_GROUP)
             .zip(counts.chunks_mut(QUERY_GROUP))
         {
-            if bounds.len() > 1
-                && (self.depth as usize) < SHORT_STACK_DEPTH
-                && self.len() >= GROUP_MIN_ITEMS
-            {
+            if bounds.len() > 1 && self.walks_groups() {
                 self.walk_group::<{ 3 * (SHORT_STACK_DEPTH / 2 + 1) + 1 }>(bounds, out, counts);
             } else {
                 for (b, count) in bounds.iter().zip(counts) {
@@ -743,6 +740,13 @@ impl Bvh {
                 }
             }
         }
+    }
+
+    /// Whether [`Bvh::query_group`] walks its queries side by side: from 4,096 items on (for
+    /// a smaller tree, which stays in cache, it is slower than one query at a time, and
+    /// `query_group` makes one query at a time).
+    pub fn walks_groups(&self) -> bool {
+        (self.depth as usize) < SHORT_STACK_DEPTH && self.len() >= GROUP_MIN_ITEMS
     }
 
     /// [`Bvh::query_group`] for at most [`QUERY_GROUP`] boxes, with stacks of `N` slots.

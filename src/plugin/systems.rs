@@ -23,9 +23,10 @@ use crate::geometry::{
     ShapeProxy, SolveSettings, StaticItem, StaticSet, solve_body,
 };
 
-/// From this many bodies on, the broad phase walks [`QUERY_GROUP`] bodies' queries of the
-/// static hierarchy side by side ([`StaticSet::candidates_group`]), so that their cache
-/// misses overlap; below, one at a time.
+/// From this many bodies on, and when the static hierarchy is large enough
+/// ([`geometry::Bvh::walks_groups`]: 4,096 statics), the broad phase walks [`QUERY_GROUP`]
+/// bodies' queries side by side ([`StaticSet::candidates_group`]), so that their cache misses
+/// overlap; otherwise one at a time, as before.
 ///
 /// Measured (`SCENE_PROFILE`, alternating builds, 100,000 statics): the broad phase is 11-16 %
 /// faster at 50,000 bodies and 16 % at 10,000, and whole steps 2-7 % faster. At 1,000 bodies
@@ -663,12 +664,8 @@ pub(crate) fn gather_bodies(
         entries.resize(most, BodyEntry::new(Entity::PLACEHOLDER, &Sweep::default()));
     }
     let statics: &StaticSet = statics;
-    // How many bodies' queries are walked side by side (see `GROUP_MIN_BODIES`).
-    let group_len = if most >= GROUP_MIN_BODIES {
-        QUERY_GROUP
-    } else {
-        1
-    };
+    // Whether the bodies' queries are walked side by side (see `GROUP_MIN_BODIES`).
+    let grouping = most >= GROUP_MIN_BODIES && statics.bvh().walks_groups();
     let work = |chunk: &mut [BodyEntry], lane: &mut Lane| {
         lane.candidates.clear();
         // Nothing of the last step survives into this one's write-back, even if the solve
@@ -684,7 +681,7 @@ pub(crate) fn gather_bodies(
         let mut grouped = 0;
         let last = chunk.len();
         for i in 0..=last {
-            if grouped == group_len || (i == last && grouped > 0) {
+            if grouped == QUERY_GROUP || (i == last && grouped > 0) {
                 let mut start = lane.candidates.len();
                 statics.candidates_group(&boxes[..grouped], &mut lane.candidates, &mut counts);
                 for (&k, &count) in group[..grouped].iter().zip(&counts) {
@@ -716,6 +713,13 @@ pub(crate) fn gather_bodies(
                 body.error = Some(CcdError::InvalidBodyData);
                 continue;
             };
+            if !grouping {
+                let start = lane.candidates.len();
+                statics.candidates_in(bounds, margin, &mut lane.candidates);
+                body.candidates = start as u32;
+                body.candidate_count = (lane.candidates.len() - start) as u32;
+                continue;
+            }
             group[grouped] = i;
             boxes[grouped] = bounds.expanded(margin);
             grouped += 1;
