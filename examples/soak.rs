@@ -1,7 +1,9 @@
 //! Soak run: the arena of the containment test (a box of 1 cm walls with obstacles, bodies
 //! thrown at 1 to 2,000 m/s with up to three turns per step, gravity) with many bodies for many
 //! steps. Every step it asserts that no body left the box and none ends deeper than the slop
-//! in a static, and it prints the counts of impacts, sub-steps and failed states.
+//! in a static, at the end that no body stayed in place for 30 steps while moving
+//! ([`Liveness`](bevy_ccd::testing::Liveness)), and it prints the counts of impacts, sub-steps
+//! and failed states.
 //!
 //! ```text
 //! cargo run --release --example soak -- [BODIES] [STEPS] [clamp|substep|both] [SEED]
@@ -14,7 +16,7 @@ use std::time::Instant;
 use bevy_ccd::geometry::LINEAR_SLOP;
 use bevy_ccd::prelude::*;
 use bevy_ccd::testing::{
-    ArenaConfig, Gravity, StepFixed, bodies_outside, deepest_penetration, headless_app,
+    ArenaConfig, Gravity, Liveness, StepFixed, bodies_outside, deepest_penetration, headless_app,
     integrate_velocity, spawn_arena,
 };
 
@@ -42,10 +44,12 @@ fn soak(label: &str, resolution: Resolution, bodies: usize, steps: usize, seed: 
     let mut worst = 0.0f32;
     let mut step_time = 0.0f64;
     let started = Instant::now();
+    let mut liveness = Liveness::default();
     for step in 0..steps {
         let t = Instant::now();
         app.step_fixed(1);
         step_time += t.elapsed().as_secs_f64();
+        liveness.observe(app.world_mut());
         let world = app.world_mut();
         let mut q = world.query::<&TimeOfImpact>();
         for toi in q.iter(world) {
@@ -75,8 +79,15 @@ fn soak(label: &str, resolution: Resolution, bodies: usize, steps: usize, seed: 
             );
         }
     }
+    let frozen = liveness.frozen();
+    assert!(
+        frozen.is_empty(),
+        "{label}: {} bodies stayed in place for 30+ steps while moving: {:?}",
+        frozen.len(),
+        &frozen[..frozen.len().min(10)]
+    );
     println!(
-        "{label:8} bodies {bodies:6} steps {steps:6} body-steps {:.3e}: escaped 0, worst \
+        "{label:8} bodies {bodies:6} steps {steps:6} body-steps {:.3e}: escaped 0, frozen 0, worst \
          penetration {worst:.2e} m (slop {LINEAR_SLOP}), impacts {impacts}, sub-steps \
          {substeps}, failed states {failed}, overlapping starts {overlapping}, {:.2} ms per \
          step (CCD + movement), {:.1} s wall",

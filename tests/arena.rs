@@ -5,7 +5,7 @@
 
 use bevy_ccd::prelude::*;
 use bevy_ccd::testing::{
-    ArenaConfig, Gravity, StepFixed, bodies_outside, deepest_penetration, headless_app,
+    ArenaConfig, Gravity, Liveness, StepFixed, bodies_outside, deepest_penetration, headless_app,
     integrate_velocity, spawn_arena,
 };
 
@@ -18,6 +18,7 @@ struct RunStats {
     worst_penetration: f32,
     impacts: u64,
     failed: u64,
+    frozen: usize,
 }
 
 fn run(resolution: Resolution, ccd: bool, steps: usize, check: bool) -> RunStats {
@@ -42,9 +43,12 @@ fn run(resolution: Resolution, ccd: bool, steps: usize, check: bool) -> RunStats
         worst_penetration: 0.0,
         impacts: 0,
         failed: 0,
+        frozen: 0,
     };
+    let mut liveness = Liveness::default();
     for step in 0..steps {
         app.step_fixed(1);
+        liveness.observe(app.world_mut());
         let world = app.world_mut();
         let mut q = world.query::<&TimeOfImpact>();
         stats.impacts += q.iter(world).map(|t| t.impacts as u64).sum::<u64>();
@@ -72,6 +76,7 @@ fn run(resolution: Resolution, ccd: bool, steps: usize, check: bool) -> RunStats
             stats.worst_penetration = stats.worst_penetration.max(depth);
         }
     }
+    stats.frozen = liveness.frozen().len();
     stats
 }
 
@@ -83,6 +88,7 @@ fn arena_substep_contains_every_body() {
         s.impacts, s.worst_penetration
     );
     assert_eq!(s.escaped_at_end, 0);
+    assert_eq!(s.frozen, 0, "bodies stayed in place while moving");
     assert!(
         s.impacts > 1000,
         "the arena must actually make bodies hit walls"
@@ -97,6 +103,7 @@ fn arena_clamp_contains_every_body() {
         s.impacts, s.worst_penetration
     );
     assert_eq!(s.escaped_at_end, 0);
+    assert_eq!(s.frozen, 0, "bodies stayed in place while moving");
     assert!(s.impacts > 1000);
     assert_eq!(s.failed, 0, "failed states in the arena");
 }

@@ -77,3 +77,45 @@ pub fn target_separation(linear_slop: f32) -> f32 {
 pub fn separation_tolerance(linear_slop: f32) -> f32 {
     0.25 * linear_slop
 }
+
+/// The most impacts one body may resolve after its first in one step ([`ResolveMode::SubStep`]'s
+/// `max_substeps` is capped here).
+///
+/// Every impact costs a time of impact against each target in reach, and the impacts of a
+/// step are kept until they are reported: the cap bounds both. A body that needs more in one
+/// step is trapped, and is clamped.
+///
+/// [`ResolveMode::SubStep`]: super::ResolveMode::SubStep
+pub const MAX_SUBSTEPS: u32 = 64;
+
+/// The most impacts in a row a body may resolve without advancing (it starts a sweep touching
+/// targets, is responded to, and touches again at once) before it is left where it is for the
+/// rest of the step, with the velocity those responses gave it.
+///
+/// One contact at the start of a step is the common case (a body resting on a floor); a body in
+/// a corner touches two walls. More than that means the responses push the body from one
+/// target into another: it is squeezed, and trying again would only repeat the cycle.
+pub const MAX_CONTACTS_AT_ONE_POSE: u32 = 8;
+
+/// The most targets a body responds to at once when it starts a sweep touching them (more are
+/// left to the next pass of the solver).
+///
+/// A body in a corner touches two; four leave room for a wedge between obstacles.
+pub const MAX_CONTACTS: usize = 4;
+
+/// The most passes over the contacts a body starts a sweep with, when their responses are
+/// iterated until none of them approaches (Gauss-Seidel, as a sequential-impulse solver does).
+///
+/// Two contacts whose normals couple through the body's rotation (a rod wedged in a corner)
+/// lose about two thirds of what approaches per pass; eight passes leave well under a
+/// thousandth of it.
+pub const CONTACT_PASSES: u32 = 8;
+
+/// The finest tolerance (as a fraction of [`separation_tolerance`]) a body that starts a sweep
+/// touching a target is searched with, when its shape is sharp and its core that close.
+///
+/// The time of impact works relative to the body's start, so its points are exact to about
+/// `1e-7` of the body's size; `slop / 4000` (1.25 µm at the default slop) is ten of those for
+/// bodies up to a metre. A core closer than four of these to the target leaves no room for a
+/// search below it: the body is moved out along the contact normal to eight (10 µm).
+pub const FINEST_TOLERANCE: f32 = 0.001;

@@ -22,7 +22,10 @@
 use glam::Vec2;
 
 use super::bvh::Bvh;
-use super::constants::{separation_tolerance, target_separation};
+use super::constants::{
+    CONTACT_PASSES, FINEST_TOLERANCE, MAX_CONTACTS, MAX_CONTACTS_AT_ONE_POSE, MAX_SUBSTEPS,
+    separation_tolerance, target_separation,
+};
 use super::gjk::{DistanceInput, SimplexCache, shape_distance};
 use super::math::{Pose, Rot, cross, left_perp, right_perp};
 use super::proxy::ShapeProxy;
@@ -320,22 +323,32 @@ pub struct BodyOutcome {
     pub started_overlapping: bool,
     /// A time-of-impact failure (the body was clamped at the last clear time).
     pub failure: Option<ToiFailure>,
+    /// The body was moved out of a contact too close for the time of impact to search from
+    /// (a few micrometres, see [`FINEST_TOLERANCE`]): `position` is not on the sweep given.
+    pub nudged: bool,
 }
 
+/// What one pair test found. `touch` is the contact (point, normal toward the target) when the
+/// body starts the sweep touching the target: [`solve_body`] responds to every such contact
+/// together once one of them is driven into.
 enum PairOutcome {
     Clear {
         overlapping: bool,
+        touch: Option<(Vec2, Vec2)>,
     },
     Hit {
         fraction: f32,
         point: Vec2,
         normal: Vec2,
         overlapping: bool,
+        touch: Option<(Vec2, Vec2)>,
     },
     Failed {
         fraction: f32,
         failure: ToiFailure,
     },
+    /// The body must move by this much before the pair can be searched (see `pair_toi`).
+    Nudge(Vec2),
 }
 
 /// Whether the contact point at the start of `sweep` moves toward the target along `normal`
@@ -343,11 +356,21 @@ enum PairOutcome {
 ///
 /// The threshold keeps rounding noise (a contact whose normal speed was just zeroed by the
 /// response) from counting as an approach; an approach below it is handled by the lowered
-/// target, which bounds how far it can sink.
+/// target, which bounds how far it can sink. The response's rounding scales with the body's
+/// speed, not the contact's (a rolling contact is at rest while the body is fast), so a few
+/// ulps of the body's motion at the point are added to it.
 fn approaching(sweep: &Sweep, point: Vec2, normal: Vec2, threshold: f32) -> bool {
     let r = point - sweep.c0;
-    let v = sweep.linear_motion() + sweep.angular_motion() * left_perp(r);
-    v.dot(normal) > threshold
+    let linear = sweep.linear_motion();
+    let turn = sweep.angular_motion() * left_perp(r);
+    let noise = 16.0 * f32::EPSILON * (linear.length() + turn.length());
+    (linear + turn).dot(normal) > threshold + noise
+}
+
+/// Whether either end of a contact patch (world points at the start of `sweep`) moves toward
+/// the target along `normal` by more than `threshold` metres over the sweep ([`approaching`]).
+fn patch_approaching(sweep: &Sweep, patch: (Vec2, Vec2), normal: Vec2, threshold: f32) -> bool {
+    approaching(sweep, patch.0, normal, threshold) || approaching(sweep, patch.1, normal, threshold)
 }
 
 /// Whether the body, swept along `sweep`, provably never comes within hit range of `target`:
@@ -551,7 +574,10 @@ fn pair_toi(
     (t_min, t_max): (f32, f32),
 ) -> PairOutcome {
     if out_of_reach(reach, &body.proxy, sweep, t_min, t_max, target, frame, slop) {
-        return PairOutcome::Clear { overlapping: false };
+        return PairOutcome::Clear {
+            overlapping: false,
+            touch: None,
+        };
     }
     let target_sweep = Sweep::stationary(Vec2::ZERO, target.position, target.angle);
     let mut input = ToiInput::new(body.proxy, *sweep, target.proxy, target_sweep);
@@ -562,12 +588,16 @@ fn pair_toi(
     };
     let out = time_of_impact_framed(&input, body_frame, frame.toi, t_min);
     match out.state {
-        ToiState::Separated => PairOutcome::Clear { overlapping: false },
+        ToiState::Separated => PairOutcome::Clear {
+            overlapping: false,
+            touch: None,
+        },
         ToiState::Hit if out.fraction > 0.0 => PairOutcome::Hit {
             fraction: out.fraction,
             point: out.point,
             normal: out.normal,
             overlapping: false,
+            touch: None,
         },
         ToiState::Failed(failure) => PairOutcome::Failed {
             fraction: out.fraction,
@@ -575,20 +605,29 @@ fn pair_toi(
         },
         ToiState::Hit | ToiState::Overlapped => {
             let overlapping = out.separation < 0.0;
+            let touch = Some((out.point, out.normal));
             if out.normal == Vec2::ZERO {
                 return core_fallback(body, sweep, target, slop, input);
             }
-            if approaching(
-                sweep,
-                out.point,
+            // The ends of the contact patch, where the response will act: deciding at the
+            // same points as the response (not at the query's one closest point) means that
+            // a contact found approaching is one the response changes, and a contact the
+            // response has just resolved is not found approaching again.
+            let patch = contact_patch(
+                &body.proxy,
+                sweep.pose_at(0.0),
+                target,
                 out.normal,
-                0.01 * separation_tolerance(slop),
-            ) {
+                out.point,
+                slop,
+            );
+            if patch_approaching(sweep, patch, out.normal, 0.01 * separation_tolerance(slop)) {
                 return PairOutcome::Hit {
                     fraction: 0.0,
                     point: out.point,
                     normal: out.normal,
                     overlapping,
+                    touch,
                 };
             }
             // Moving apart or exactly along, without turning: the core distance along a
@@ -600,27 +639,39 @@ fn pair_toi(
             let turn =
                 sweep.angular_motion().abs() * body.proxy.max_distance_from(body.local_center);
             if turn <= 0.01 * separation_tolerance(slop)
-                && !approaching(sweep, out.point, out.normal, 0.0)
+                && !patch_approaching(sweep, patch, out.normal, 0.0)
             {
-                return PairOutcome::Clear { overlapping };
+                return PairOutcome::Clear { overlapping, touch };
             }
             // Turning: search the rest of the sweep with a band lowered below the start, so
-            // that the body may slide or leave but not sink (never below `-slop / 2`). The
-            // start must stay clearly above the band: on its edge rounding decides, and in it
-            // the query hits at 0 and the body is frozen, even moving away. So the target is
-            // `2 fine` below the start, `fine` being the query's tolerance: the slop's quarter,
-            // or a quarter of the core distance when the cores are closer than four of those,
-            // since the query never lets the cores come closer than twice its tolerance (this
-            // is what sharp bodies a little below the usual band need).
+            // that the body may slide or leave but not sink (not below `-slop / 2` from a
+            // start above it). The start must stay clearly above the band, whose top is `fine`
+            // above its target: on its edge rounding decides, and in it the query hits at 0
+            // and the body is frozen, even moving away. So the target is `2 fine` below the
+            // start, floored at `-slop / 2` but never closer than `1.5 fine` to the start (a
+            // start already near the floor keeps that much room), `fine` being the query's
+            // tolerance: the slop's quarter, or a quarter of the core distance when the cores
+            // are closer than four of those, since the query never lets the cores come closer
+            // than twice its tolerance (this is what sharp bodies a little below the usual
+            // band need).
             let tolerance = separation_tolerance(slop);
             let start = out.separation.min(slop);
             let core_distance = out.separation + body.proxy.radius + target.proxy.radius;
-            let fine = (0.25 * core_distance).clamp(0.02 * tolerance, tolerance);
+            let finest = FINEST_TOLERANCE * tolerance;
+            if core_distance < 4.0 * finest {
+                // No band fits between the cores (a sharp corner a few micrometres from the
+                // target): the body is moved out along the normal until one does.
+                return PairOutcome::Nudge((core_distance - 8.0 * finest) * out.normal);
+            }
+            let fine = (0.25 * core_distance).clamp(finest, 0.1 * tolerance);
             input.config.linear_slop = 4.0 * fine;
-            input.config.target_separation = Some((start - 2.0 * fine).max(-0.5 * slop));
+            let lowered = (start - 2.0 * fine)
+                .max(-0.5 * slop)
+                .min(start - 1.5 * fine);
+            input.config.target_separation = Some(lowered);
             let out2 = time_of_impact_framed(&input, body_frame, frame.toi, t_min);
             match out2.state {
-                ToiState::Separated => PairOutcome::Clear { overlapping },
+                ToiState::Separated => PairOutcome::Clear { overlapping, touch },
                 ToiState::Hit | ToiState::Overlapped => PairOutcome::Hit {
                     fraction: out2.fraction,
                     point: out2.point,
@@ -630,6 +681,7 @@ fn pair_toi(
                         out2.normal
                     },
                     overlapping,
+                    touch,
                 },
                 ToiState::Failed(failure) => PairOutcome::Failed {
                     fraction: out2.fraction,
@@ -650,12 +702,16 @@ fn core_fallback(
     input.proxy_a = ShapeProxy::from_parts(&[body.local_center], body.core_radius);
     let out = time_of_impact(&input);
     match out.state {
-        ToiState::Separated => PairOutcome::Clear { overlapping: true },
+        ToiState::Separated => PairOutcome::Clear {
+            overlapping: true,
+            touch: None,
+        },
         ToiState::Hit if out.fraction > 0.0 => PairOutcome::Hit {
             fraction: out.fraction,
             point: out.point,
             normal: out.normal,
             overlapping: true,
+            touch: None,
         },
         ToiState::Failed(failure) => PairOutcome::Failed {
             fraction: out.fraction,
@@ -675,6 +731,7 @@ fn core_fallback(
                     point: out.point,
                     normal: out.normal,
                     overlapping: true,
+                    touch: Some((out.point, out.normal)),
                 }
             } else if out.normal == Vec2::ZERO
                 && let Some((exit, depth)) = exit_face(target, sweep.c0)
@@ -687,9 +744,13 @@ fn core_fallback(
                     point: sweep.c0 + depth * exit,
                     normal: -exit,
                     overlapping: true,
+                    touch: Some((sweep.c0 + depth * exit, -exit)),
                 }
             } else {
-                PairOutcome::Clear { overlapping: true }
+                PairOutcome::Clear {
+                    overlapping: true,
+                    touch: None,
+                }
             }
         }
     }
@@ -777,20 +838,62 @@ fn patch_response(
     r: (Vec2, Vec2),
     normal: Vec2,
     (mass, inertia): (f32, f32),
-    restitution: f32,
-    friction: f32,
+    (restitution, friction): (f32, f32),
 ) -> (Vec2, f32) {
+    let single =
+        |r: Vec2| contact_response(velocity, r, normal, mass, inertia, restitution, friction);
     let mid = 0.5 * (r.0 + r.1);
     if (r.1 - r.0).length_squared() <= 1e-12 * (1.0 + mid.length_squared()) {
-        return contact_response(velocity, mid, normal, mass, inertia, restitution, friction);
+        return single(mid);
     }
-    let (v, w) = velocity;
-    let inv_m = 1.0 / mass;
-    let inv_i = 1.0 / inertia;
+    let inv = (1.0 / mass, 1.0 / inertia);
+    let Some(impulses) = patch_impulses(velocity, r, normal, inv, restitution) else {
+        return single(mid);
+    };
+    if impulses == (0.0, 0.0) {
+        return velocity;
+    }
+    let (mut v, mut w) = apply_impulses(velocity, r, normal, inv, impulses);
+    // Coulomb friction at the middle of the patch.
+    let (inv_m, inv_i) = inv;
+    let tangent = left_perp(normal);
+    let rt = cross(mid, tangent);
+    let vt = (v + w * left_perp(mid)).dot(tangent);
+    let bound = friction * (impulses.0 + impulses.1);
+    let jt = (-vt / (inv_m + rt * rt * inv_i)).clamp(-bound, bound);
+    v += jt * inv_m * tangent;
+    w += rt * jt * inv_i;
+    // Friction also turns the body, which can drive an end into the target again (the
+    // impulses couple through `(r × n)(r × t) / I`): a last inelastic pair of impulses removes
+    // that, so that the response leaves both ends at rest or separating.
+    if let Some(settle) = patch_impulses((v, w), r, normal, inv, 0.0) {
+        (v, w) = apply_impulses((v, w), r, normal, inv, settle);
+    }
+    // Simultaneous restitution at two points can add energy (a spinning body whose ends
+    // approach at different speeds); a single impulse with `e <= 1` never does. Fall back to
+    // one impulse at the end that approaches fastest whenever the pair would gain energy.
+    let energy = |v: Vec2, w: f32| mass * v.length_squared() + inertia * w * w;
+    if energy(v, w) > energy(velocity.0, velocity.1) * (1.0 + 1e-5) {
+        let vn = |r: Vec2| (velocity.0 + velocity.1 * left_perp(r)).dot(normal);
+        return single(if vn(r.0) <= vn(r.1) { r.0 } else { r.1 });
+    }
+    (v, w)
+}
+
+/// The normal impulses at the ends `r` of a contact patch (Box2D's block solver, see
+/// [`patch_response`]): `(0, 0)` when neither end approaches, `None` when no pair of
+/// non-negative impulses leaves both ends at rest or separating.
+fn patch_impulses(
+    (v, w): (Vec2, f32),
+    r: (Vec2, Vec2),
+    normal: Vec2,
+    (inv_m, inv_i): (f32, f32),
+    restitution: f32,
+) -> Option<(f32, f32)> {
     let vn = |r: Vec2| (v + w * left_perp(r)).dot(normal);
     let (vn1, vn2) = (vn(r.0), vn(r.1));
     if vn1 >= 0.0 && vn2 >= 0.0 {
-        return velocity;
+        return Some((0.0, 0.0));
     }
     let target = |vn: f32| if vn < 0.0 { -restitution * vn } else { 0.0 };
     let (b1, b2) = (target(vn1) - vn1, target(vn2) - vn2);
@@ -799,45 +902,37 @@ fn patch_response(
     let k22 = inv_m + rn2 * rn2 * inv_i;
     let k12 = inv_m + rn1 * rn2 * inv_i;
     let det = k11 * k22 - k12 * k12;
-    let mut impulses = None;
     if det > 1e-9 * k11 * k22 {
         let j1 = (k22 * b1 - k12 * b2) / det;
         let j2 = (k11 * b2 - k12 * b1) / det;
         if j1 >= 0.0 && j2 >= 0.0 {
-            impulses = Some((j1, j2));
+            return Some((j1, j2));
         }
     }
-    if impulses.is_none() {
-        let j1 = (b1 / k11).max(0.0);
-        let j2 = (b2 / k22).max(0.0);
-        if vn2 + k12 * j1 >= 0.0 && j1 > 0.0 {
-            impulses = Some((j1, 0.0));
-        } else if vn1 + k12 * j2 >= 0.0 && j2 > 0.0 {
-            impulses = Some((0.0, j2));
-        }
+    let j1 = (b1 / k11).max(0.0);
+    let j2 = (b2 / k22).max(0.0);
+    if vn2 + k12 * j1 >= 0.0 && j1 > 0.0 {
+        Some((j1, 0.0))
+    } else if vn1 + k12 * j2 >= 0.0 && j2 > 0.0 {
+        Some((0.0, j2))
+    } else {
+        None
     }
-    let Some((j1, j2)) = impulses else {
-        return contact_response(velocity, mid, normal, mass, inertia, restitution, friction);
-    };
-    let mut v = v + (j1 + j2) * inv_m * normal;
-    let mut w = w + (rn1 * j1 + rn2 * j2) * inv_i;
-    // Coulomb friction at the middle of the patch.
-    let tangent = left_perp(normal);
-    let rt = cross(mid, tangent);
-    let vt = (v + w * left_perp(mid)).dot(tangent);
-    let bound = friction * (j1 + j2);
-    let jt = (-vt / (inv_m + rt * rt * inv_i)).clamp(-bound, bound);
-    v += jt * inv_m * tangent;
-    w += rt * jt * inv_i;
-    // Simultaneous restitution at two points can add energy (a spinning body whose ends
-    // approach at different speeds); a single impulse with `e <= 1` never does. Fall back to
-    // one impulse at the end that approaches fastest whenever the pair would gain energy.
-    let energy = |v: Vec2, w: f32| mass * v.length_squared() + inertia * w * w;
-    if energy(v, w) > energy(velocity.0, velocity.1) * (1.0 + 1e-5) {
-        let end = if vn1 <= vn2 { r.0 } else { r.1 };
-        return contact_response(velocity, end, normal, mass, inertia, restitution, friction);
-    }
-    (v, w)
+}
+
+/// The velocity after normal impulses `j` at the ends `r` of a contact patch.
+fn apply_impulses(
+    (v, w): (Vec2, f32),
+    r: (Vec2, Vec2),
+    normal: Vec2,
+    (inv_m, inv_i): (f32, f32),
+    (j1, j2): (f32, f32),
+) -> (Vec2, f32) {
+    let (rn1, rn2) = (cross(r.0, normal), cross(r.1, normal));
+    (
+        v + (j1 + j2) * inv_m * normal,
+        w + (rn1 * j1 + rn2 * j2) * inv_i,
+    )
 }
 
 /// The impulse response at a contact against an immovable target.
@@ -878,7 +973,32 @@ pub fn contact_response(
     let rt = cross(r, tangent);
     let vt = (v + w * left_perp(r)).dot(tangent);
     let jt = (-vt / (inv_m + rt * rt * inv_i)).clamp(-friction * jn, friction * jn);
-    (v + jt * inv_m * tangent, w + rt * jt * inv_i)
+    let v = v + jt * inv_m * tangent;
+    let w = w + rt * jt * inv_i;
+    // Friction also turns the body, which can drive the contact into the target again (the
+    // impulses couple through `(r × n)(r × t) / I`): a last inelastic normal impulse removes
+    // that, so that the response leaves the contact at rest or separating.
+    let vn = (v + w * left_perp(r)).dot(normal);
+    if vn >= 0.0 {
+        return (v, w);
+    }
+    let settle = -vn / (inv_m + rn * rn * inv_i);
+    (v + settle * inv_m * normal, w + rn * settle * inv_i)
+}
+
+/// The surface separation (m, radii included) of a body at `pose` from `target`.
+fn separation(proxy: &ShapeProxy, pose: Pose, target: &StaticItem) -> f32 {
+    shape_distance(
+        &DistanceInput {
+            proxy_a: proxy,
+            proxy_b: &target.proxy,
+            pose_a: pose,
+            pose_b: Pose::new(target.position, target.angle),
+            use_radii: true,
+        },
+        &mut SimplexCache::default(),
+    )
+    .distance
 }
 
 /// Targets of one sweep that [`solve_body`] orders on the stack by when the body can first
@@ -915,9 +1035,12 @@ pub fn solve_body(
         substeps: 0,
         started_overlapping: false,
         failure: None,
+        nudged: false,
     };
     // Fraction of the whole step at the start of the current sweep.
     let mut step_start = 0.0f32;
+    // Impacts in a row that did not advance the body ([`MAX_CONTACTS_AT_ONE_POSE`]).
+    let mut stalled = 0;
     let mut first = true;
     loop {
         let list: &[u32] = if first {
@@ -962,8 +1085,13 @@ pub fn solve_body(
         }
         let visits = if short { ordered } else { list.len() };
         // Earliest hit; ties go to the lowest target index.
-        let mut best: Option<(f32, u32, Vec2, Vec2)> = None;
+        let mut best: Option<(f32, u32, Vec2, Vec2, bool)> = None;
         let mut failed: Option<(f32, ToiFailure)> = None;
+        // Every target the body touches at the start of the sweep: once it drives into one,
+        // they are responded to together (a body in a corner).
+        let mut touching = [(0u32, Vec2::ZERO, Vec2::ZERO); MAX_CONTACTS];
+        let mut touches = 0;
+        let mut nudge = None;
         for visit in 0..visits {
             let ((enter, leave), index) = if short {
                 order[visit]
@@ -1001,18 +1129,31 @@ pub fn solve_body(
                 slop,
                 interval,
             ) {
-                PairOutcome::Clear { overlapping } => {
+                PairOutcome::Clear { overlapping, touch } => {
                     result.started_overlapping |= overlapping && first;
+                    if let Some((point, normal)) = touch
+                        && touches < MAX_CONTACTS
+                    {
+                        touching[touches] = (index, point, normal);
+                        touches += 1;
+                    }
                 }
                 PairOutcome::Hit {
                     fraction,
                     point,
                     normal,
                     overlapping,
+                    touch,
                 } => {
                     result.started_overlapping |= overlapping && first;
                     if best.is_none_or(|b| fraction < b.0 || (fraction == b.0 && index < b.1)) {
-                        best = Some((fraction, index, point, normal));
+                        best = Some((fraction, index, point, normal, touch.is_some()));
+                    }
+                    if let Some((point, normal)) = touch
+                        && touches < MAX_CONTACTS
+                    {
+                        touching[touches] = (index, point, normal);
+                        touches += 1;
                     }
                 }
                 PairOutcome::Failed { fraction, failure } => {
@@ -1020,7 +1161,24 @@ pub fn solve_body(
                         failed = Some((fraction, failure));
                     }
                 }
+                PairOutcome::Nudge(offset) => {
+                    nudge.get_or_insert(offset);
+                }
             }
+        }
+        if let Some(offset) = nudge {
+            // Moved out of a contact too close to search from, then searched again.
+            sweep.c0 += offset;
+            sweep.c1 += offset;
+            result.nudged = true;
+            first = false;
+            stalled += 1;
+            if stalled < MAX_CONTACTS_AT_ONE_POSE {
+                continue;
+            }
+            result.position = sweep.pose_at(0.0).p;
+            result.angle = sweep.a0;
+            break;
         }
         first = false;
         if let Some((fraction, failure)) = failed {
@@ -1033,43 +1191,83 @@ pub fn solve_body(
                 break;
             }
         }
-        let Some((fraction, index, point, normal)) = best else {
+        let Some((fraction, index, point, normal, resting)) = best else {
             result.position = sweep.pose_at(1.0).p;
             result.angle = sweep.a1;
             break;
         };
         let step_fraction = step_start + fraction * (1.0 - step_start);
-        let outward = -normal;
-        impacts.push(ImpactRecord {
-            target: index,
-            fraction: step_fraction,
-            point,
-            normal: outward,
-        });
-        result.impacts += 1;
+        let contacts = if fraction == 0.0 {
+            &touching[..touches]
+        } else {
+            &[(index, point, normal)][..]
+        };
         let center = sweep.center_at(fraction);
         let angle = sweep.angle_at(fraction);
-        let (patch_a, patch_b) = contact_patch(
-            &body.proxy,
-            sweep.pose_at(fraction),
-            &statics.items[index as usize],
-            normal,
-            point,
-            slop,
-        );
-        velocity = patch_response(
-            velocity,
-            (patch_a - center, patch_b - center),
-            outward,
-            (body.mass, body.inertia),
-            body.restitution,
-            body.friction,
-        );
-        let clamp = match settings.mode {
-            ResolveMode::Clamp => true,
-            ResolveMode::SubStep { max_substeps } => result.substeps >= max_substeps,
+        let pose = sweep.pose_at(fraction);
+        // Each contact's patch (its ends as lever arms from the centre), outward normal and
+        // push: a contact closer than the hits of the time of impact (a body that slid or
+        // turned into a lowered band, see `pair_toi`) is sent back toward them over a step,
+        // at most one slop a step, so that repeated contacts do not creep ever closer.
+        let mut patches = [((Vec2::ZERO, Vec2::ZERO), Vec2::ZERO, 0.0); MAX_CONTACTS];
+        for (patch, &(index, point, normal)) in patches.iter_mut().zip(contacts) {
+            impacts.push(ImpactRecord {
+                target: index,
+                fraction: step_fraction,
+                point,
+                normal: -normal,
+            });
+            let target = &statics.items[index as usize];
+            let (a, b) = contact_patch(&body.proxy, pose, target, normal, point, slop);
+            let gap = separation(&body.proxy, pose, target);
+            let hits_at = target_separation(slop) - separation_tolerance(slop);
+            let push = (hits_at - gap).clamp(0.0, slop) / ((1.0 - step_fraction).max(0.25) * dt);
+            *patch = ((a - center, b - center), -normal, push);
+        }
+        result.impacts += contacts.len() as u32;
+        // Restitution on the first pass, then inelastic passes until no contact approaches:
+        // Gauss-Seidel over the contacts, as a sequential-impulse solver iterates, since one
+        // contact's impulse can drive the body into another. One contact needs one pass (its
+        // response leaves it at rest or separating).
+        for pass in 0..CONTACT_PASSES {
+            let before = velocity;
+            let restitution = if pass == 0 { body.restitution } else { 0.0 };
+            for &(ends, outward, _) in &patches[..contacts.len()] {
+                velocity = patch_response(
+                    velocity,
+                    ends,
+                    outward,
+                    (body.mass, body.inertia),
+                    (restitution, body.friction),
+                );
+            }
+            if contacts.len() == 1 || velocity == before {
+                break;
+            }
+        }
+        // The push, through the centre of mass (every point of the body moves away, whatever
+        // it turns), after the contacts are resolved.
+        for &(_, outward, push) in &patches[..contacts.len()] {
+            let along = velocity.0.dot(outward);
+            if along < push {
+                velocity.0 += (push - along) * outward;
+            }
+        }
+        // A contact at the start of the sweep (the body rests on a target, or a response has
+        // just turned it into another) is resolved without advancing: such impacts count
+        // toward every limit, and too many in a row leave the body where it is.
+        let advanced = step_fraction > step_start;
+        stalled = if advanced { 0 } else { stalled + 1 };
+        let done = match settings.mode {
+            // Clamping stops at the first impact with a target the body did not start the
+            // sweep touching; a contact it starts with (or slides or turns into) only changes
+            // its velocity, and the step goes on from there.
+            ResolveMode::Clamp => advanced && !resting,
+            ResolveMode::SubStep { max_substeps } => {
+                result.substeps >= max_substeps.min(MAX_SUBSTEPS)
+            }
         };
-        if clamp || step_fraction >= 1.0 {
+        if done || stalled >= MAX_CONTACTS_AT_ONE_POSE || step_fraction >= 1.0 {
             result.position = sweep.pose_at(fraction).p;
             result.angle = angle;
             break;

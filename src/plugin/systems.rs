@@ -81,6 +81,9 @@ const HAS_MASS: u8 = 4;
 const COLLIDER_MASS_OK: u8 = 8;
 /// [`BodyEntry::flags`]: the body's [`TimeOfImpact`] was [`CLEAR`] before this step.
 const WAS_CLEAR: u8 = 16;
+/// [`BodyEntry::flags`]: the solver moved the body out of a contact too close to search from
+/// ([`geometry::BodyOutcome::nudged`]), so it does not end at its user's pose.
+const NUDGED: u8 = 32;
 
 /// The outcome of a step in which a body was swept and nothing happened.
 const CLEAR: TimeOfImpact = TimeOfImpact {
@@ -1252,6 +1255,9 @@ fn solve_lane(
             if outcome.started_overlapping {
                 body.flags |= OVERLAPPING;
             }
+            if outcome.nudged {
+                body.flags |= NUDGED;
+            }
             body.error = outcome.failure.map(CcdError::Toi);
         }
     }
@@ -1265,7 +1271,7 @@ fn solve_lane(
         }
         if body.impact_count > 0
             || body.error.is_some()
-            || body.flags & OVERLAPPING != 0
+            || body.flags & (OVERLAPPING | NUDGED) != 0
             || body.flags & WAS_CLEAR == 0
         {
             visit.push(index as u32);
@@ -1333,11 +1339,12 @@ fn write_lane(
         // Without an impact or a failure the body ends where its user put it: that pose
         // is left exactly as it is (the solver's went through the centre of mass and
         // back, and a rebuilt rotation would not have the user's bits).
-        let (position, angle) = if body.impact_count == 0 && body.error.is_none() {
-            (sweep.end_position, sweep.end_angle)
-        } else {
-            (body.position, body.angle)
-        };
+        let (position, angle) =
+            if body.impact_count == 0 && body.error.is_none() && body.flags & NUDGED == 0 {
+                (sweep.end_position, sweep.end_angle)
+            } else {
+                (body.position, body.angle)
+            };
         if position != sweep.end_position || angle != sweep.end_angle {
             transform.translation.x = position.x;
             transform.translation.y = position.y;

@@ -120,3 +120,90 @@ pub fn bodies_outside(world: &mut World, bounds: Aabb) -> Vec<Entity> {
     out.sort();
     out
 }
+
+/// Counts bodies that stay in place while their velocity moves them: a liveness check for
+/// level tests, the arena and the soak run.
+///
+/// After each step, [`Liveness::observe`] compares every CCD body's `Transform` with the last
+/// step's, bit for bit. A body whose pose has not changed for [`Liveness::steps`] steps in a
+/// row while its [`Velocity`] is above [`Liveness::speed`] (m/s) or [`Liveness::spin`]
+/// (rad/s) counts as frozen.
+///
+/// ```
+/// use bevy_ccd::prelude::*;
+/// use bevy_ccd::testing::{Liveness, StepFixed, headless_app, integrate_velocity};
+/// use bevy_transform::prelude::Transform;
+///
+/// let mut app = headless_app(1.0 / 60.0);
+/// app.add_systems(bevy_app::FixedUpdate, integrate_velocity);
+/// app.world_mut().spawn((
+///     Collider::circle(0.1).unwrap(),
+///     CcdEnabled::default(),
+///     Velocity { linear: Vec2::new(5.0, 0.0), angular: 0.0 },
+///     Transform::default(),
+/// ));
+/// let mut liveness = Liveness::default();
+/// for _ in 0..60 {
+///     app.step_fixed(1);
+///     liveness.observe(app.world_mut());
+/// }
+/// assert!(liveness.frozen().is_empty());
+/// ```
+#[derive(Clone, Debug)]
+pub struct Liveness {
+    /// Steps in a row without a change of pose that make a moving body frozen. The default is
+    /// 30.
+    pub steps: u32,
+    /// Speed (m/s) above which a body is moving. The default is 1.
+    pub speed: f32,
+    /// Angular speed (rad/s) above which a body is moving. The default is 1.
+    pub spin: f32,
+    /// Per body: its last pose's bits, how many steps in a row it has kept it while moving,
+    /// and the longest such run.
+    bodies: std::collections::BTreeMap<Entity, ([u32; 7], u32, u32)>,
+}
+
+impl Default for Liveness {
+    fn default() -> Self {
+        Self {
+            steps: 30,
+            speed: 1.0,
+            spin: 1.0,
+            bodies: Default::default(),
+        }
+    }
+}
+
+impl Liveness {
+    /// Records the pose of every CCD body after a step.
+    pub fn observe(&mut self, world: &mut World) {
+        let mut query = world.query_filtered::<(Entity, &Transform, &Velocity), (
+            With<CcdEnabled>,
+            Without<StaticCollider>,
+        )>();
+        for (entity, transform, velocity) in query.iter(world) {
+            let (t, q) = (transform.translation, transform.rotation);
+            let bits = [t.x, t.y, t.z, q.x, q.y, q.z, q.w].map(f32::to_bits);
+            let moving =
+                velocity.linear.length() > self.speed || velocity.angular.abs() > self.spin;
+            let entry = self.bodies.entry(entity).or_insert((bits, 0, 0));
+            entry.1 = if entry.0 == bits && moving {
+                entry.1 + 1
+            } else {
+                0
+            };
+            entry.0 = bits;
+            entry.2 = entry.2.max(entry.1);
+        }
+    }
+
+    /// The bodies that stayed in place for [`Self::steps`] steps or more while moving, in
+    /// entity order, with the longest such run of each.
+    pub fn frozen(&self) -> Vec<(Entity, u32)> {
+        self.bodies
+            .iter()
+            .filter(|(_, (_, _, longest))| *longest >= self.steps)
+            .map(|(entity, (_, _, longest))| (*entity, *longest))
+            .collect()
+    }
+}
