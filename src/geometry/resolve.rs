@@ -128,6 +128,14 @@ impl StaticSet {
         self.bvh.build(&self.scratch);
     }
 
+    /// Stops target `index` being hit until the set is rebuilt (a target removed while a step
+    /// is under way). An index out of range is ignored.
+    pub fn disable(&mut self, index: usize) {
+        if let Some(record) = self.records.get_mut(index) {
+            record.disabled = true;
+        }
+    }
+
     /// The targets.
     pub fn items(&self) -> &[StaticItem] {
         &self.items
@@ -220,6 +228,8 @@ struct TargetRecord {
     reach: f32,
     /// [`TargetFrame::core_is_box`].
     core_is_box: bool,
+    /// The target was removed since the set was built ([`StaticSet::disable`]): never hit.
+    disabled: bool,
 }
 
 // One line: a key that grew past 59 bytes would make every record two.
@@ -232,6 +242,7 @@ impl TargetRecord {
             key: TargetKey::new(item, &frame),
             reach: frame.toi.reach(),
             core_is_box: frame.core_is_box,
+            disabled: false,
         }
     }
 
@@ -1068,7 +1079,12 @@ pub fn solve_body(
         let short = list.len() <= ORDERED_TARGETS;
         if short {
             for &index in list {
-                let Some(key) = statics.records.get(index as usize).map(|r| &r.key) else {
+                let Some(key) = statics
+                    .records
+                    .get(index as usize)
+                    .filter(|r| !r.disabled)
+                    .map(|r| &r.key)
+                else {
                     continue;
                 };
                 if let Some(window) = reach_interval(sweep_reach, &body.proxy, &sweep, key, slop) {
@@ -1100,7 +1116,11 @@ pub fn solve_body(
             };
             let (Some(target), Some(frame)) = (
                 statics.items.get(index as usize),
-                statics.records.get(index as usize).map(TargetRecord::frame),
+                statics
+                    .records
+                    .get(index as usize)
+                    .filter(|r| !r.disabled)
+                    .map(TargetRecord::frame),
             ) else {
                 continue;
             };

@@ -11,6 +11,7 @@ use crate::geometry::{
     self, Capsule, Circle, MassProperties, Polygon, Segment, Shape, ShapeError, ShapeProxy,
     ToiFailure,
 };
+use bevy_transform::components::Transform;
 
 /// The shape of a body or of a static target, with an optional offset from the entity origin.
 ///
@@ -164,22 +165,30 @@ impl Collider {
 /// ));
 /// ```
 #[derive(Component, Reflect, Clone, Copy, Debug, Default, PartialEq, Eq)]
-#[component(on_add = statics_changed, on_remove = statics_changed)]
+#[component(on_add = static_added, on_remove = static_removed)]
 #[reflect(Component, Default, Debug, Clone)]
 pub struct StaticCollider;
 
-/// Hook of [`StaticCollider`]: a static target was added or removed (despawns included), so
-/// the static hierarchy must be rebuilt before the next sweep.
-fn statics_changed(mut world: DeferredWorld, _: HookContext) {
+/// Hook of [`StaticCollider`] (addition) and of a static's [`Collider`] (insertion): the static
+/// hierarchy must be rebuilt before the next sweep.
+fn static_added(mut world: DeferredWorld, _: HookContext) {
     if let Some(mut workspace) = world.get_resource_mut::<CcdWorkspace>() {
         workspace.statics_changed();
+    }
+}
+
+/// Hook of [`StaticCollider`] and of a static's [`Collider`] (removal, despawns included): the
+/// hierarchy must be rebuilt, and the target is not hit from now on, even by a step under way.
+fn static_removed(mut world: DeferredWorld, context: HookContext) {
+    if let Some(mut workspace) = world.get_resource_mut::<CcdWorkspace>() {
+        workspace.static_removed(context.entity);
     }
 }
 
 /// Hook of [`Collider`] (removal): only a static's matters, to the hierarchy.
 fn static_shape_changed(world: DeferredWorld, context: HookContext) {
     if world.entity(context.entity).contains::<StaticCollider>() {
-        statics_changed(world, context);
+        static_removed(world, context);
     }
 }
 
@@ -193,18 +202,39 @@ fn collider_inserted(mut world: DeferredWorld, context: HookContext) {
         shape.write(sweep.bypass_change_detection());
     }
     if is_static {
-        statics_changed(world, context);
+        static_added(world, context);
     }
 }
 
-/// Hook of [`Sweep`] (insertion): it takes the summary of the body's [`Collider`], if any yet.
+/// Hook of [`Sweep`] (insertion, which [`CcdEnabled`] brings): it takes the summary of the
+/// body's [`Collider`], if any yet, and the body's pose now as the start of its first sweep, so
+/// that a body spawned during a fixed step (by a system before the movement, say) is swept
+/// from where it was spawned in that very step.
 fn sweep_inserted(mut world: DeferredWorld, context: HookContext) {
-    let shape = world
-        .entity(context.entity)
-        .get::<Collider>()
-        .map(ShapeSummary::of);
-    if let (Some(shape), Some(mut sweep)) = (shape, world.get_mut::<Sweep>(context.entity)) {
-        shape.write(sweep.bypass_change_detection());
+    let entity = world.entity(context.entity);
+    let shape = entity.get::<Collider>().map(ShapeSummary::of);
+    let pose = entity.get::<Transform>().map(super::systems::planar_pose);
+    let enabled = entity.get::<CcdEnabled>().is_some_and(|e| e.0);
+    let step = world
+        .get_resource::<CcdWorkspace>()
+        .map_or(0, CcdWorkspace::step);
+    let Some(mut sweep) = world.get_mut::<Sweep>(context.entity) else {
+        return;
+    };
+    let sweep = sweep.bypass_change_detection();
+    if let Some(shape) = shape {
+        shape.write(sweep);
+    }
+    if let Some((position, angle)) = pose {
+        sweep.start_position = position;
+        sweep.start_angle = angle;
+        sweep.end_position = position;
+        sweep.end_angle = angle;
+        sweep.resolved_position = position;
+        sweep.resolved_angle = angle;
+        sweep.resolved_valid = false;
+        sweep.recorded = enabled;
+        sweep.recorded_in = step;
     }
 }
 
@@ -224,10 +254,7 @@ impl ShapeSummary {
         Self {
             local_center: mass.center,
             reach: collider.proxy.reach(mass.center),
-            mass_ok: mass.mass.is_finite()
-                && mass.mass > 0.0
-                && mass.inertia.is_finite()
-                && mass.inertia > 0.0,
+            mass_ok: usable_mass(mass.mass, mass.inertia),
         }
     }
 
@@ -238,10 +265,21 @@ impl ShapeSummary {
     }
 }
 
+/// Whether a mass and an inertia can be used by the impulse response: finite and at least the
+/// smallest normal `f32`, so that their reciprocals are finite too.
+pub(crate) fn usable_mass(mass: f32, inertia: f32) -> bool {
+    let usable = |x: f32| x.is_finite() && x >= f32::MIN_POSITIVE;
+    usable(mass) && usable(inertia)
+}
+
 /// Turns continuous collision on or off for one body.
 ///
-/// Removing the component, or setting it off, stops the body being swept from the next step
-/// on. Bodies need a [`Collider`]; a [`Sweep`] and a [`TimeOfImpact`] are added for them.
+/// Whether a body is swept in a fixed step is decided when the step begins
+/// ([`CcdSystems::RecordStart`](super::CcdSystems::RecordStart)): setting it on or off, or
+/// removing it, during a step takes effect at the next one. A body spawned with it during a
+/// step (or given it for the first time) is swept in that step already, from where it was
+/// spawned. Bodies need a [`Collider`] (an enabled body without one gets a warning, once, and
+/// is not swept); a [`Sweep`], a [`TimeOfImpact`] and a `Transform` are added for them.
 ///
 /// ```
 /// use bevy_ccd::prelude::*;
@@ -254,7 +292,7 @@ impl ShapeSummary {
 /// ```
 #[derive(Component, Reflect, Clone, Copy, Debug, PartialEq, Eq)]
 #[reflect(Component, Default, Debug, Clone)]
-#[require(Sweep, TimeOfImpact)]
+#[require(Transform, Sweep, TimeOfImpact)]
 pub struct CcdEnabled(
     /// Whether the body is swept. The default is `true`.
     pub bool,
@@ -303,8 +341,16 @@ pub struct Sweep {
     pub resolved_angle: f32,
     /// Centre of mass in the body frame (m), the [`Collider`]'s. The default is the origin.
     pub local_center: Vec2,
-    /// Whether the start pose was recorded in the current step. The default is `false`.
+    /// Whether the body is swept in the step it was recorded in. The default is `false`.
     pub recorded: bool,
+    /// The step the start pose was recorded in ([`CcdWorkspace`]'s count): a body is swept only
+    /// in that step, so that one no longer recorded (its [`CcdEnabled`] removed) is not swept
+    /// from a stale start.
+    #[reflect(ignore)]
+    pub(crate) recorded_in: u32,
+    /// The warning for an enabled body without a [`Collider`] was given.
+    #[reflect(ignore)]
+    pub(crate) warned_no_collider: bool,
     /// `resolved_*` is where the last step left the body (the workspace keeps the tick its
     /// write-back ran at): the next step's start can be read from it instead of from the
     /// `Transform` when that has not changed since.
@@ -344,6 +390,10 @@ pub enum CcdError {
     CoordinatesTooLarge,
     /// The fixed step has zero or non-finite length.
     ZeroLengthStep,
+    /// [`CcdConfig`](super::CcdConfig) is unusable: its `linear_slop` is not finite and
+    /// positive (at least `f32::MIN_POSITIVE`), or its `timestep` is set but not finite and
+    /// positive. Every body is left where its user put it, with one warning.
+    InvalidSettings,
     /// The `Velocity` or mass properties hold NaN, infinity or a non-positive mass.
     InvalidBodyData,
     /// The time of impact failed against a target; the body was clamped at the last time known
@@ -493,8 +543,9 @@ impl Default for Friction {
 #[derive(Component, Reflect, Clone, Copy, Debug, PartialEq)]
 #[reflect(Component, Debug, Clone)]
 pub struct BodyMass {
-    /// Mass (kg), positive.
+    /// Mass (kg), finite and at least `f32::MIN_POSITIVE` (a subnormal mass has no finite
+    /// reciprocal); otherwise the body is not swept ([`CcdError::InvalidBodyData`]).
     pub mass: f32,
-    /// Rotational inertia about the centre of mass (kg m²), positive.
+    /// Rotational inertia about the centre of mass (kg m²), as `mass`.
     pub inertia: f32,
 }

@@ -15,9 +15,10 @@ use smallvec::SmallVec;
 
 use super::components::{
     BodyMass, CcdEnabled, CcdError, CcdStatus, Collider, Friction, Impact, Restitution,
-    StaticCollider, Sweep, TimeOfImpact, Velocity,
+    StaticCollider, Sweep, TimeOfImpact, Velocity, usable_mass,
 };
 use super::{CcdConfig, CcdImpact, Resolution};
+use crate::geometry::constants::MAX_SUBSTEPS;
 use crate::geometry::{
     self, Aabb, BodyState, ImpactRecord, MAX_WORLD_COORDINATE, QUERY_GROUP, ResolveMode,
     ShapeProxy, SolveSettings, StaticItem, StaticSet, solve_body,
@@ -174,6 +175,20 @@ pub struct CcdWorkspace {
     solved: bool,
     /// The last step's gather solved and wrote back (kept for [`Self::last_step_fused`]).
     fused: bool,
+    /// Steps begun ([`record_start`] counts them): [`Sweep::recorded_in`] names one.
+    step: u32,
+    /// The warnings given once per app ([`Warned`]).
+    warned: u8,
+}
+
+/// The warnings [`CcdWorkspace`] gives once per app, as bits of its `warned`.
+struct Warned;
+
+impl Warned {
+    const SETTINGS: u8 = 1;
+    const RESTITUTION: u8 = 2;
+    const FRICTION: u8 = 4;
+    const SUBSTEPS: u8 = 8;
 }
 
 impl CcdWorkspace {
@@ -181,6 +196,30 @@ impl CcdWorkspace {
     /// hooks of [`StaticCollider`] and [`Collider`].
     pub(crate) fn statics_changed(&mut self) {
         self.statics_ready = false;
+    }
+
+    /// A static's [`StaticCollider`] or [`Collider`] was removed (or it was despawned): the
+    /// hierarchy is stale, and the target is not hit from now on, also by a step under way
+    /// whose broad phase listed it. Called by their hooks.
+    pub(crate) fn static_removed(&mut self, entity: Entity) {
+        self.statics_ready = false;
+        // Targets are in entity order.
+        if let Ok(index) = self.static_entities.binary_search(&entity) {
+            self.statics.disable(index);
+        }
+    }
+
+    /// The steps begun so far ([`super::CcdSystems::RecordStart`] counts them).
+    pub(crate) fn step(&self) -> u32 {
+        self.step
+    }
+
+    /// Gives a warning, unless one of this kind was given before.
+    fn warn_once(&mut self, kind: u8, message: impl FnOnce() -> String) {
+        if self.warned & kind == 0 {
+            self.warned |= kind;
+            log::warn!("bevy_ccd: {} (warned once)", message());
+        }
     }
 
     /// How many times the static hierarchy has been built: once at the first step, then once
@@ -271,14 +310,17 @@ fn step_length(config: &CcdConfig, time: Option<&Time<Fixed>>) -> f32 {
 /// this one.
 pub(crate) fn record_start(
     config: Res<CcdConfig>,
-    workspace: Res<CcdWorkspace>,
+    mut workspace: ResMut<CcdWorkspace>,
     ticks: SystemChangeTick,
     mut bodies: Query<(Ref<Transform>, &mut Sweep, &CcdEnabled), Without<StaticCollider>>,
 ) {
     let written_at = workspace.written_at;
+    workspace.step = workspace.step.wrapping_add(1);
+    let step = workspace.step;
     let this_run = ticks.this_run();
     let record = |transform: &Transform, changed: Tick, sweep: &mut Sweep, enabled: bool| {
         sweep.recorded = enabled;
+        sweep.recorded_in = step;
         let unchanged = sweep.resolved_valid
             && written_at.is_some_and(|at| !changed.is_newer_than(at, this_run));
         if unchanged {
@@ -647,7 +689,36 @@ pub(crate) fn gather_bodies(
     if fused {
         workspace.written_at = Some(ticks.this_run());
     }
-    let step_ok = dt.is_finite() && dt > 0.0;
+    // A step the solver cannot use leaves every body where its user put it, in an error
+    // state: a slop or a step length that is not finite and positive (a subnormal one has no
+    // finite reciprocal, and the solver divides by both).
+    let usable = |x: f32| x.is_finite() && x >= f32::MIN_POSITIVE;
+    let step_error = if !usable(config.linear_slop) || config.timestep.is_some_and(|t| !usable(t)) {
+        workspace.warn_once(Warned::SETTINGS, || {
+            format!(
+                "CcdConfig has linear_slop {} and timestep {:?}: both must be finite and \
+                 positive; no body is swept",
+                config.linear_slop, config.timestep
+            )
+        });
+        Some(CcdError::InvalidSettings)
+    } else if !usable(dt) {
+        Some(CcdError::ZeroLengthStep)
+    } else {
+        None
+    };
+    if let Resolution::SubStep { max_substeps } = config.resolution
+        && max_substeps > MAX_SUBSTEPS
+    {
+        workspace.warn_once(Warned::SUBSTEPS, || {
+            format!("max_substeps {max_substeps} is above the limit, {MAX_SUBSTEPS}: capped")
+        });
+    }
+    let mut listing = Listing {
+        step: workspace.step,
+        clamped: 0,
+    };
+    let listing = &mut listing;
     let margin = config.linear_slop;
     let CcdWorkspace {
         statics,
@@ -697,8 +768,8 @@ pub(crate) fn gather_bodies(
             let Some(body) = chunk.get_mut(i) else {
                 break;
             };
-            if !step_ok {
-                body.error = Some(CcdError::ZeroLengthStep);
+            if let Some(error) = step_error {
+                body.error = Some(error);
                 continue;
             }
             if let Err(error) = fill(body) {
@@ -753,7 +824,7 @@ pub(crate) fn gather_bodies(
                 &mut queries,
                 |queries| {
                     let mut filled = 0;
-                    let listed = list_bodies(&mut queries.p0(), all, lane_len, |chunk| {
+                    let listed = list_bodies(&mut queries.p0(), all, lane_len, listing, |chunk| {
                         if let Some(slot) = slots.get(filled) {
                             let mut guard = lock(slot);
                             if let Slot::Listing(lane) =
@@ -785,7 +856,7 @@ pub(crate) fn gather_bodies(
             let work = &work;
             let mut listed = 0;
             pool.scope(|s| {
-                listed = list_bodies(&mut queries.p0(), slots, lane_len, |chunk| {
+                listed = list_bodies(&mut queries.p0(), slots, lane_len, listing, |chunk| {
                     if let Some(lane) = free.next() {
                         s.spawn(async move { work(chunk, lane) });
                     }
@@ -796,12 +867,28 @@ pub(crate) fn gather_bodies(
         // On one thread, the listing first, then the lanes (interleaving them measured 5 %
         // slower: the listing's stream of components and the hierarchy evict each other).
         _ => {
-            let listed = list_bodies(&mut queries.p0(), &mut entries[..], lane_len, |_| {});
+            let listed = list_bodies(
+                &mut queries.p0(),
+                &mut entries[..],
+                lane_len,
+                listing,
+                |_| {},
+            );
             entries.truncate(listed);
             for (chunk, lane) in entries.chunks_mut(lane_len).zip(lanes.iter_mut()) {
                 work(chunk, lane);
             }
         }
+    }
+    if listing.clamped & Warned::RESTITUTION != 0 {
+        workspace.warn_once(Warned::RESTITUTION, || {
+            "a Restitution outside [0, 1] was clamped into it".into()
+        });
+    }
+    if listing.clamped & Warned::FRICTION != 0 {
+        workspace.warn_once(Warned::FRICTION, || {
+            "a negative Friction was taken as 0".into()
+        });
     }
 }
 
@@ -812,30 +899,48 @@ type ListQuery<'w, 's> = Query<
     (
         Entity,
         &'static mut Sweep,
-        Option<&'static CcdEnabled>,
         &'static mut TimeOfImpact,
+        Has<Collider>,
         Option<&'static Velocity>,
         Option<&'static Restitution>,
         Option<&'static Friction>,
         Option<&'static BodyMass>,
     ),
-    (With<Collider>, Without<StaticCollider>),
+    Without<StaticCollider>,
 >;
 
+/// What the listing of [`gather_bodies`] needs beyond the query, and what it found: the step
+/// whose bodies are swept, and the materials it clamped ([`Warned`] bits).
+struct Listing {
+    step: u32,
+    clamped: u8,
+}
+
 /// The listing of [`gather_bodies`]: a serial pass in query order (deterministic for a given
-/// world) that copies each enabled body's data into the next entry of `slots`, and passes
+/// world) that copies each swept body's data into the next entry of `slots`, and passes
 /// `done` each lane (`lane_len` entries, the last one fewer) as soon as it is complete.
 /// Returns the number of entries filled.
+///
+/// A body is swept when its start was recorded in this step ([`Sweep::recorded_in`]) with
+/// [`CcdEnabled`] on, and it has a [`Collider`]. The others' outcomes go back to
+/// [`CcdStatus::Idle`]; an enabled one without a collider gets a warning, once.
 fn list_bodies<'a>(
     bodies: &mut ListQuery,
     slots: &'a mut [BodyEntry],
     lane_len: usize,
+    listing: &mut Listing,
     mut done: impl FnMut(&'a mut [BodyEntry]),
 ) -> usize {
     let mut rest = slots;
     let (mut listed, mut in_lane) = (0, 0);
-    for (entity, mut sweep, enabled, mut toi, velocity, restitution, friction, mass) in bodies {
-        if !enabled.is_some_and(|e| e.0) || !sweep.recorded {
+    for (entity, mut sweep, mut toi, has_collider, velocity, restitution, friction, mass) in bodies
+    {
+        let swept = sweep.recorded && sweep.recorded_in == listing.step;
+        if !swept || !has_collider {
+            if swept && !sweep.warned_no_collider {
+                sweep.bypass_change_detection().warned_no_collider = true;
+                log::warn!("bevy_ccd: body {entity} has CcdEnabled but no Collider: not swept");
+            }
             // Not swept: its `Transform` may move without a write-back.
             if sweep.resolved_valid {
                 sweep.bypass_change_detection().resolved_valid = false;
@@ -859,8 +964,17 @@ fn list_bodies<'a>(
             entry.inertia = m.inertia;
             entry.flags |= HAS_MASS;
         }
+        // Out-of-range materials are clamped (a NaN is left for `fill` to refuse).
         entry.restitution = restitution.map_or(0.0, |r| r.0);
+        if entry.restitution < 0.0 || entry.restitution > 1.0 {
+            entry.restitution = entry.restitution.clamp(0.0, 1.0);
+            listing.clamped |= Warned::RESTITUTION;
+        }
         entry.friction = friction.map_or(0.0, |f| f.0);
+        if entry.friction < 0.0 {
+            entry.friction = 0.0;
+            listing.clamped |= Warned::FRICTION;
+        }
         // `slots` holds as many entries as the query has bodies, so there is room.
         let Some(slot) = rest.get_mut(in_lane) else {
             break;
@@ -930,7 +1044,7 @@ fn fill(body: &mut BodyEntry) -> Result<(), CcdError> {
         return Err(CcdError::CoordinatesTooLarge);
     }
     let mass_ok = if body.flags & HAS_MASS != 0 {
-        body.mass.is_finite() && body.mass > 0.0 && body.inertia.is_finite() && body.inertia > 0.0
+        usable_mass(body.mass, body.inertia)
     } else {
         body.flags & COLLIDER_MASS_OK != 0
     };
@@ -945,7 +1059,6 @@ fn fill(body: &mut BodyEntry) -> Result<(), CcdError> {
         return Err(CcdError::InvalidBodyData);
     }
     body.sweep = motion;
-    body.restitution = body.restitution.clamp(0.0, 1.0);
     Ok(())
 }
 
@@ -1279,8 +1392,9 @@ fn solve_lane(
     }
 }
 
-/// Puts a body in the error state, with a warning the first time this error shows. An error
-/// repeated from the last step is left unwritten (no change flagged).
+/// Puts a body in the error state, with a warning the first time this error shows (the
+/// settings' errors have their own, once for every body). An error repeated from the last step
+/// is left unwritten (no change flagged).
 fn set_error(toi: &mut Mut<TimeOfImpact>, entity: Entity, error: CcdError) {
     let outcome = TimeOfImpact {
         status: CcdStatus::Error,
@@ -1288,7 +1402,7 @@ fn set_error(toi: &mut Mut<TimeOfImpact>, entity: Entity, error: CcdError) {
         ..Default::default()
     };
     if **toi != outcome {
-        if toi.error != Some(error) {
+        if toi.error != Some(error) && error != CcdError::InvalidSettings {
             log::warn!("bevy_ccd: body {entity} not swept this step: {error:?}; left where it is");
         }
         **toi = outcome;
