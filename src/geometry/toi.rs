@@ -116,7 +116,7 @@ impl ToiInput {
     }
 }
 
-/// Why a time-of-impact query failed.
+/// Why a time-of-impact query, or the response at its impact, failed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ToiFailure {
     /// A sweep, proxy or setting holds NaN or infinity.
@@ -130,6 +130,9 @@ pub enum ToiFailure {
     IterationLimit,
     /// The root finder could not bracket the separation (a numerical breakdown).
     RootFinder,
+    /// The impulse response at an impact has no finite `f32` answer: the new velocity
+    /// overflows (speeds, lever arms or mass ratios near the limits of `f32`).
+    ResponseOverflow,
 }
 
 /// The outcome of a time-of-impact query.

@@ -346,8 +346,8 @@ pub enum CcdError {
     ZeroLengthStep,
     /// The `Velocity` or mass properties hold NaN, infinity or a non-positive mass.
     InvalidBodyData,
-    /// The time of impact failed against a target; the body was clamped at the last time known
-    /// to be clear.
+    /// The time of impact failed against a target, the body clamped at the last time known to
+    /// be clear; or the response at an impact failed, the body clamped at the impact.
     Toi(ToiFailure),
 }
 
