@@ -57,12 +57,13 @@ pub const MAX_WORLD_COORDINATE: f32 = 1.0e6;
 pub const HULL_RELATIVE_TOLERANCE: f32 = 1.0e-6;
 
 /// The largest ratio of a polygon's length (its longest vertex-to-vertex distance) to its
-/// width (the smallest distance between parallel lines enclosing it), before rounding.
+/// width (the smallest distance between parallel lines enclosing it), the rounding radius not
+/// counted.
 ///
-/// Up to it, rounding a coordinate (half an ulp, 6e-8 of the length for a polygon centred on
-/// its origin) moves the thin side by at most about 1 % of the width, and the hull tolerance
-/// ([`HULL_RELATIVE_TOLERANCE`], which would weld the thin side at about 1e6:1) stays several
-/// times away. 2e5 keeps a 2 km long, 1 cm thick wall.
+/// Up to it, rounding the coordinates of a polygon centred on its origin (half an ulp each, at
+/// most 3e-8 of the length) changes its width by at most 1.2 %, and the hull tolerance
+/// ([`HULL_RELATIVE_TOLERANCE`], which would weld the thin sides at about 1e6:1) stays five
+/// times away. A 1 km long, 1 cm thick wall is at half the limit.
 pub const MAX_ASPECT_RATIO: f32 = 2.0e5;
 
 /// The most points [`Polygon::from_points`](super::Polygon::from_points) takes; a larger

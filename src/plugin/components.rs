@@ -88,7 +88,7 @@ impl Collider {
 
     /// A box with the given half width and half height, at most
     /// [`MAX_ASPECT_RATIO`](crate::geometry::constants::MAX_ASPECT_RATIO) times longer than
-    /// wide (a 2 km long, 1 cm thick wall).
+    /// wide (a 1 km long, 1 cm thick wall is at half the limit).
     pub fn rectangle(half_width: f32, half_height: f32) -> Result<Self, ShapeError> {
         Ok(Self::new(Polygon::rectangle(half_width, half_height)?))
     }
