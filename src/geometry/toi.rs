@@ -119,10 +119,12 @@ impl ToiInput {
 /// Why a time-of-impact query, or the response at its impact, failed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ToiFailure {
-    /// A sweep, proxy or setting holds NaN or infinity.
+    /// A sweep, proxy or setting (or, for the response, a velocity or body datum) holds NaN or
+    /// infinity.
     NonFinite,
     /// A setting is out of range (slop not positive, `max_fraction` outside `[0, 1]`, negative
-    /// radius).
+    /// radius; for the response, a mass or inertia not above zero, a restitution outside
+    /// `[0, 1]`, a negative friction or a normal not of unit length).
     InvalidInput,
     /// A coordinate is beyond [`MAX_WORLD_COORDINATE`].
     CoordinatesTooLarge,
