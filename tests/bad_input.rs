@@ -469,8 +469,8 @@ fn polygon_from_points_returns_the_hull() {
     assert_ccw_convex(vs, "square cloud");
     assert_eq!(vs.len(), 4, "{vs:?}");
     for c in corners {
-        // Welded near-duplicates may keep either copy: match within the weld tolerance (1e-5
-        // relative to the 4 m extent).
+        // Welded near-duplicates may keep either copy: match within ten times the weld
+        // tolerance (1e-6 relative to the 4 m extent).
         assert!(
             vs.iter().any(|p| p.distance(c) <= 4e-5),
             "corner {c} missing from {vs:?}"
@@ -489,7 +489,7 @@ fn polygon_from_points_returns_the_hull() {
     // Random clouds against a brute-force hull: a point is a hull vertex iff it lies in no
     // triangle of three other points (Carathéodory), exactly, in f64. Clouds with nearly
     // collinear triples or nearly coincident pairs are skipped: the crate welds and drops points
-    // within 1e-5 of the extent by design, so there the two definitions may legitimately differ.
+    // within 1e-6 of the extent by design, so there the two definitions may legitimately differ.
     let mut rng = Rng(0xB0B);
     let mut checked = 0;
     let mut too_many = 0;

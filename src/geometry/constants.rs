@@ -51,9 +51,28 @@ pub const MAX_WORLD_COORDINATE: f32 = 1.0e6;
 /// Relative tolerance used to weld near-duplicate points and reject collinear ones when
 /// building a polygon, as a fraction of the point set's extent.
 ///
-/// It is a few hundred `f32` epsilons: small enough to keep 1000:1 slivers, large enough that
-/// rounding noise cannot make an edge flip direction.
-pub const HULL_RELATIVE_TOLERANCE: f32 = 1.0e-5;
+/// Eight `f32` epsilons: above the rounding of the coordinates' differences and cross products
+/// (a few epsilons of the extent), so that rounding noise cannot make an edge flip direction,
+/// and small enough to keep polygons [`MAX_ASPECT_RATIO`] times longer than wide.
+pub const HULL_RELATIVE_TOLERANCE: f32 = 1.0e-6;
+
+/// The largest ratio of a polygon's length (its longest vertex-to-vertex distance) to its
+/// width (the smallest distance between parallel lines enclosing it), the rounding radius not
+/// counted.
+///
+/// Up to it, rounding the coordinates of a polygon centred on its origin (half an ulp each, at
+/// most 3e-8 of the length) changes its width by at most 1.2 %, and the hull tolerance
+/// ([`HULL_RELATIVE_TOLERANCE`], which would weld the thin sides at about 1e6:1) stays five
+/// times away. A 1 km long, 1 cm thick wall is at half the limit.
+pub const MAX_ASPECT_RATIO: f32 = 2.0e5;
+
+/// The most points [`Polygon::from_points`](super::Polygon::from_points) takes; a larger
+/// cloud is refused before any work.
+///
+/// Welding near-duplicates compares a point with the kept points near it, up to all of them:
+/// 1,024 points bound that to half a million distance checks (well under a millisecond). The
+/// hull itself keeps at most [`MAX_POLYGON_VERTICES`] vertices.
+pub const MAX_HULL_INPUT_POINTS: usize = 1024;
 
 /// The smallest size (m) of a shape: a radius, half extent or edge below this is rejected.
 ///

@@ -1,14 +1,17 @@
 //! Convex shapes, their validation errors, bounds and mass properties.
 //!
 //! Every constructor validates its input and returns a [`ShapeError`] instead of panicking:
-//! non-finite numbers, sizes below [`MIN_SHAPE_SIZE`], too few or too many points, collinear or
-//! non-convex outlines.
+//! non-finite numbers, sizes below [`MIN_SHAPE_SIZE`], too few or too many points, collinear,
+//! non-convex or too thin outlines.
 
 use core::fmt;
 
 use glam::Vec2;
 
-use super::constants::{HULL_RELATIVE_TOLERANCE, MAX_POLYGON_VERTICES, MIN_SHAPE_SIZE};
+use super::constants::{
+    HULL_RELATIVE_TOLERANCE, MAX_ASPECT_RATIO, MAX_HULL_INPUT_POINTS, MAX_POLYGON_VERTICES,
+    MIN_SHAPE_SIZE,
+};
 use super::math::{Pose, cross, right_perp};
 use super::proxy::ShapeProxy;
 
@@ -23,6 +26,10 @@ pub enum ShapeError {
     TooFewPoints,
     /// More points on the hull than [`MAX_POLYGON_VERTICES`].
     TooManyPoints,
+    /// More points given to the convex hull than [`MAX_HULL_INPUT_POINTS`].
+    TooManyInputPoints,
+    /// A polygon more than [`MAX_ASPECT_RATIO`] times longer than it is wide.
+    TooThin,
     /// All points lie on one line: the polygon has no area.
     Collinear,
     /// The vertices given as counter-clockwise are not a strictly convex counter-clockwise loop.
@@ -36,6 +43,20 @@ impl fmt::Display for ShapeError {
             Self::TooSmall => "a size is zero, negative or below the smallest supported shape size",
             Self::TooFewPoints => "too few distinct points for this shape",
             Self::TooManyPoints => "the convex hull has more vertices than MAX_POLYGON_VERTICES",
+            Self::TooManyInputPoints => {
+                return write!(
+                    f,
+                    "more than MAX_HULL_INPUT_POINTS ({MAX_HULL_INPUT_POINTS}) points given to \
+                     the convex hull"
+                );
+            }
+            Self::TooThin => {
+                return write!(
+                    f,
+                    "the polygon is more than MAX_ASPECT_RATIO ({MAX_ASPECT_RATIO}) times longer \
+                     than it is wide"
+                );
+            }
             Self::Collinear => "the points are collinear: the polygon would have no area",
             Self::NotConvex => "the vertices are not a strictly convex counter-clockwise loop",
         };
@@ -264,9 +285,14 @@ impl Polygon {
     /// The convex hull of a point cloud, rounded by `radius` (0 for sharp corners).
     ///
     /// Points closer than [`HULL_RELATIVE_TOLERANCE`] times the cloud's extent are welded, and
-    /// points on a hull edge are dropped. Fails when the hull has no area or more than
-    /// [`MAX_POLYGON_VERTICES`] vertices.
+    /// points on a hull edge are dropped. Fails when given more than [`MAX_HULL_INPUT_POINTS`]
+    /// points, or when the hull has no area, more than [`MAX_POLYGON_VERTICES`] vertices or is
+    /// more than [`MAX_ASPECT_RATIO`] times longer than wide.
     pub fn from_points(points: &[Vec2], radius: f32) -> Result<Self, ShapeError> {
+        // First, so that an oversized cloud costs nothing, not even a scan.
+        if points.len() > MAX_HULL_INPUT_POINTS {
+            return Err(ShapeError::TooManyInputPoints);
+        }
         let radius = check_radius(radius)?;
         if points.iter().any(|p| !p.is_finite()) {
             return Err(ShapeError::NonFinite);
@@ -336,6 +362,11 @@ impl Polygon {
     ) -> Result<Self, ShapeError> {
         let hx = check_size(half_width)?;
         let hy = check_size(half_height)?;
+        // Checked here, not only after the hull: far beyond the limit the hull tolerance would
+        // weld the thin sides first and name the wrong reason.
+        if hx.max(hy) > MAX_ASPECT_RATIO * hx.min(hy) {
+            return Err(ShapeError::TooThin);
+        }
         Self::from_ccw(
             &[
                 Vec2::new(-hx, -hy),
@@ -390,6 +421,13 @@ impl Polygon {
         if width.is_nan() || width < MIN_SHAPE_SIZE {
             return Err(ShapeError::Collinear);
         }
+        let length = hull
+            .iter()
+            .flat_map(|a| hull.iter().map(move |b| a.distance(*b)))
+            .fold(0.0f32, f32::max);
+        if length > MAX_ASPECT_RATIO * width {
+            return Err(ShapeError::TooThin);
+        }
         Ok(poly)
     }
 
@@ -430,10 +468,10 @@ fn hull_tolerance(points: &[Vec2]) -> f32 {
         hi = hi.max(*p);
     }
     // Scale by both the extent and the distance from the origin: far from the origin the
-    // coordinates themselves carry the rounding.
+    // coordinates themselves carry the rounding (0.1 of the distance: 0.8 epsilons of it).
     let extent = (hi - lo)
         .max_element()
-        .max(lo.abs().max(hi.abs()).max_element() * 1.0e-2);
+        .max(lo.abs().max(hi.abs()).max_element() * 0.1);
     HULL_RELATIVE_TOLERANCE * extent
 }
 
@@ -445,17 +483,18 @@ fn convex_hull(points: &[Vec2]) -> Result<smallvec::SmallVec<[Vec2; 16]>, ShapeE
     let tol = hull_tolerance(points);
     let mut pts: smallvec::SmallVec<[Vec2; 16]> = points.iter().copied().collect();
     pts.sort_by(|a, b| a.x.total_cmp(&b.x).then(a.y.total_cmp(&b.y)));
-    // Weld near-duplicates.
+    // Weld near-duplicates. The kept points are in ascending x, so only the last ones, within
+    // `tol` in x, can be within `tol` of `p`.
     let mut welded: smallvec::SmallVec<[Vec2; 16]> = smallvec::SmallVec::new();
     for p in pts {
-        if welded.iter().all(|q| q.distance(p) > tol) {
+        let mut near = welded.iter().rev().take_while(|q| p.x - q.x <= tol);
+        if near.all(|q| q.distance(p) > tol) {
             welded.push(p);
         }
     }
     if welded.len() < 3 {
         return Err(ShapeError::TooFewPoints);
     }
-    welded.sort_by(|a, b| a.x.total_cmp(&b.x).then(a.y.total_cmp(&b.y)));
     // A turn counts as a strict left turn only when the point is farther than `tol` from the
     // line of the previous edge.
     let left = |o: Vec2, a: Vec2, b: Vec2| cross(a - o, b - o) > tol * (a - o).length();

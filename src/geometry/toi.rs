@@ -116,13 +116,15 @@ impl ToiInput {
     }
 }
 
-/// Why a time-of-impact query failed.
+/// Why a time-of-impact query, or the response at its impact, failed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ToiFailure {
-    /// A sweep, proxy or setting holds NaN or infinity.
+    /// A sweep, proxy or setting (or, for the response, a velocity or body datum) holds NaN or
+    /// infinity.
     NonFinite,
     /// A setting is out of range (slop not positive, `max_fraction` outside `[0, 1]`, negative
-    /// radius).
+    /// radius; for the response, a mass or inertia not above zero, a restitution outside
+    /// `[0, 1]`, a negative friction or a normal not of unit length).
     InvalidInput,
     /// A coordinate is beyond [`MAX_WORLD_COORDINATE`].
     CoordinatesTooLarge,
@@ -130,6 +132,9 @@ pub enum ToiFailure {
     IterationLimit,
     /// The root finder could not bracket the separation (a numerical breakdown).
     RootFinder,
+    /// The impulse response at an impact has no finite `f32` answer: the new velocity
+    /// overflows (speeds, lever arms or mass ratios near the limits of `f32`).
+    ResponseOverflow,
 }
 
 /// The outcome of a time-of-impact query.

@@ -87,12 +87,16 @@ impl Collider {
         Ok(Self::new(Segment::new(a, b)?))
     }
 
-    /// A box with the given half width and half height.
+    /// A box with the given half width and half height, at most
+    /// [`MAX_ASPECT_RATIO`](crate::geometry::constants::MAX_ASPECT_RATIO) times longer than
+    /// wide (a 1 km long, 1 cm thick wall is at half the limit).
     pub fn rectangle(half_width: f32, half_height: f32) -> Result<Self, ShapeError> {
         Ok(Self::new(Polygon::rectangle(half_width, half_height)?))
     }
 
-    /// The convex hull of a point cloud, rounded by `radius`.
+    /// The convex hull of a point cloud (at most
+    /// [`MAX_HULL_INPUT_POINTS`](crate::geometry::constants::MAX_HULL_INPUT_POINTS) points),
+    /// rounded by `radius`; see [`Polygon::from_points`].
     pub fn convex_hull(points: &[Vec2], radius: f32) -> Result<Self, ShapeError> {
         Ok(Self::new(Polygon::from_points(points, radius)?))
     }
@@ -396,8 +400,8 @@ pub enum CcdError {
     InvalidSettings,
     /// The `Velocity` or mass properties hold NaN, infinity or a non-positive mass.
     InvalidBodyData,
-    /// The time of impact failed against a target; the body was clamped at the last time known
-    /// to be clear.
+    /// The time of impact failed against a target, the body clamped at the last time known to
+    /// be clear; or the response at an impact failed, the body clamped at the impact.
     Toi(ToiFailure),
 }
 

@@ -33,7 +33,7 @@ use core::time::Duration;
 
 use bevy_app::prelude::*;
 use bevy_ecs::prelude::*;
-use bevy_time::{Fixed, Real, Time, TimePlugin, TimeUpdateStrategy};
+use bevy_time::{Fixed, Real, Time, TimePlugin, TimeUpdateStrategy, Virtual};
 use bevy_transform::components::Transform;
 use glam::{Quat, Vec3};
 
@@ -45,14 +45,18 @@ use super::{CcdEnabled, CcdPlugin, Collider, StaticCollider, Velocity};
 use crate::geometry::{Aabb, Pose};
 
 /// An app with the time and CCD plugins where every `update` runs exactly one fixed step of
-/// `timestep` seconds.
+/// `timestep` seconds, whatever its length.
 pub fn headless_app(timestep: f64) -> App {
     let mut app = App::new();
     app.add_plugins((TimePlugin, CcdPlugin::default()));
-    app.insert_resource(Time::<Fixed>::from_duration(Duration::from_secs_f64(
-        timestep,
-    )));
+    let step = Duration::from_secs_f64(timestep);
+    app.insert_resource(Time::<Fixed>::from_duration(step));
     app.insert_resource(TimeUpdateStrategy::FixedTimesteps(1));
+    // The virtual clock adds at most its maximum delta (0.25 s by default) per update; a
+    // longer step would then be reached only every few updates.
+    let mut virtual_time = app.world_mut().resource_mut::<Time<Virtual>>();
+    let max_delta = virtual_time.max_delta().max(step);
+    virtual_time.set_max_delta(max_delta);
     // `Time<Real>` ignores its first update (it only records the instant), which would make
     // the first `update` run no fixed step. Record the start now so that every update,
     // the first included, advances by one timestep.
@@ -205,5 +209,38 @@ impl Liveness {
             .filter(|(_, (_, _, longest))| *longest >= self.steps)
             .map(|(entity, (_, _, longest))| (*entity, *longest))
             .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[derive(Resource, Default)]
+    struct Steps(u32);
+
+    fn count(mut steps: ResMut<Steps>) {
+        steps.0 += 1;
+    }
+
+    #[test]
+    fn every_update_runs_one_fixed_step_whatever_its_length() {
+        // 0.25 s is the virtual clock's default maximum delta; longer steps used to run only
+        // every few updates (one step in four updates at 1 s).
+        for dt in [1.0 / 60.0, 0.25, 0.3, 1.0, 10.0, 3600.0] {
+            let mut app = headless_app(dt);
+            app.init_resource::<Steps>();
+            app.add_systems(FixedUpdate, count);
+            for n in 1..=8 {
+                app.update();
+                assert_eq!(
+                    app.world().resource::<Steps>().0,
+                    n,
+                    "step {dt} s, update {n}"
+                );
+            }
+            let fixed = app.world().resource::<Time<Fixed>>();
+            assert_eq!(fixed.delta(), Duration::from_secs_f64(dt), "step {dt} s");
+        }
     }
 }
