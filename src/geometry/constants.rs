@@ -42,10 +42,74 @@ pub const ROOT_MAX_ITERATIONS: u32 = 50;
 /// refining its Lipschitz bound before it settles for a shorter certified interval.
 pub const CERTIFY_MAX_EVALUATIONS: u32 = 24;
 
-/// The largest magnitude (m) of any world coordinate accepted by the time of impact.
+/// How many times finer than the slop the `f32` spacing of every coordinate must be:
+/// [`max_world_coordinate`] stops where the spacing would exceed `slop / 64`.
 ///
-/// Past this, one `f32` unit in the last place of a coordinate is larger than 0.06 m, more than
-/// ten times the default slop, so no answer could be trusted. Such input is `Failed`.
+/// The time of impact itself resolves `slop / 4`, but the pose it hands back is rounded to the
+/// spacing at every step, and the solver works on sub-millimetre differences of those poses (a
+/// resting body's start separation, the band of a turning body), so the poses must be far
+/// finer. Measured with the arena (500 bodies of every shape, 1 cm walls, slop 5 mm, gravity,
+/// 300 steps, both resolution modes) shifted away from the origin, 60 seeds per position:
+/// where the spacing is `slop / 82` (2^-14 m, the arena centred at 964 or 1,000 m) no body
+/// escapes or ends a step deeper than the slop; at `slop / 41` (2^-13 m, centred at 1,988 or
+/// 2,000 m) 1 to 4 seeds of 60 end a step up to 17 cm deep in a target; at `slop / 20`
+/// (3,000 m) 3 of 60, one with a body escaping; at `slop / 10` (6,000 m) 12 runs of 120, 5
+/// with escapes. 64 is the power of two that keeps the passing binade and leaves out the
+/// failing one, a factor of two of margin; a power of two, so that `slop / 64` is exact.
+pub const SLOP_PER_COORDINATE_SPACING: f32 = 64.0;
+
+/// The largest magnitude of any world coordinate the plugin accepts for a given slop (in the
+/// slop's length unit, metres by default): the largest power of two below which the `f32`
+/// spacing is at most `slop / SLOP_PER_COORDINATE_SPACING`, and never more than
+/// [`MAX_WORLD_COORDINATE`] (the time of impact's own bound). A body reaching beyond it, at the start or the end of a step,
+/// is refused with `CcdError::CoordinatesTooLarge`; a static reaching beyond it is ignored.
+///
+/// Derivation: an `f32` with `|x|` in `[2^e, 2^(e+1))` has 23 fraction bits, so neighbouring
+/// values there are `2^(e-23)` apart. The spacing is at most `s = slop / 64` for every
+/// `|x| < 2^(e+1)` exactly when `2^(e-23) <= s`; the largest such `e` has `2^(e-23) = p`,
+/// `p` the largest power of two not above `s`, so the limit is `2^(e+1) = p * 2^24`. At the
+/// default slop (5 mm): `s = 7.8e-5`, `p = 2^-14`, limit `2^10 = 1,024` m. It scales with the
+/// slop, and so with the length unit, in powers of two: a slop of 0.5 (centimetres) gives
+/// `2^17 = 131,072` cm. From a slop of 4 on (millimetres) [`MAX_WORLD_COORDINATE`] is the
+/// lesser.
+///
+/// The time of impact alone accepts far more (up to [`MAX_WORLD_COORDINATE`]): it works
+/// relative to one body, so with exact poses it is as precise far out as at the origin. A
+/// simulation's poses are not exact: every step rounds them to the spacing, and that is
+/// what this limit bounds.
+///
+/// A slop that is not finite and positive gives [`MAX_WORLD_COORDINATE`]: such a slop is an
+/// error of the settings, for the time of impact to report (`InvalidInput`, `NonFinite`),
+/// not a reason to refuse every body's coordinates. A positive slop so small that `slop / 64`
+/// is subnormal gives 0: no coordinate can be trusted to it.
+pub const fn max_world_coordinate(linear_slop: f32) -> f32 {
+    // Written so that NaN fails too.
+    if !(linear_slop > 0.0 && linear_slop <= f32::MAX) {
+        return MAX_WORLD_COORDINATE;
+    }
+    // Exact: dividing by a power of two only changes the exponent (for normal results).
+    let finest = linear_slop / SLOP_PER_COORDINATE_SPACING;
+    if finest < f32::MIN_POSITIVE {
+        return 0.0;
+    }
+    // `p`: the exponent bits of a positive normal float, mantissa cleared.
+    let p = f32::from_bits(finest.to_bits() & 0x7f80_0000);
+    // `p * 2^24` may overflow to infinity, which the comparison also caps.
+    let limit = p * 16_777_216.0;
+    if limit > MAX_WORLD_COORDINATE {
+        MAX_WORLD_COORDINATE
+    } else {
+        limit
+    }
+}
+
+/// The largest magnitude (m) of any coordinate, angle, core point or radius accepted by the
+/// time of impact; such input is `Failed(CoordinatesTooLarge)`.
+///
+/// The query works relative to its first body's start, so with exact input its answers stay
+/// as precise here as at the origin (one `f32` spacing is 0.06 m at 1e6 m, but differences of
+/// nearby coordinates are exact). The plugin, whose poses are rounded at every step, accepts
+/// far less: [`max_world_coordinate`] of its slop.
 pub const MAX_WORLD_COORDINATE: f32 = 1.0e6;
 
 /// Relative tolerance used to weld near-duplicate points and reject collinear ones when

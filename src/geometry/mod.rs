@@ -12,7 +12,10 @@ mod sweep;
 mod toi;
 
 pub use bvh::{Bvh, QUERY_GROUP};
-pub use constants::{LINEAR_SLOP, MAX_POLYGON_VERTICES, MAX_WORLD_COORDINATE};
+pub use constants::{
+    LINEAR_SLOP, MAX_POLYGON_VERTICES, MAX_WORLD_COORDINATE, SLOP_PER_COORDINATE_SPACING,
+    max_world_coordinate,
+};
 pub use gjk::{DistanceInput, DistanceOutput, SimplexCache, shape_distance};
 pub use math::{Pose, Rot, atan2, cross, left_perp, right_perp};
 pub use proxy::ShapeProxy;

@@ -390,7 +390,10 @@ impl Sweep {
 pub enum CcdError {
     /// The `Transform` (start or end) holds NaN or infinity.
     NonFiniteTransform,
-    /// A coordinate is beyond the geometry layer's limit.
+    /// Part of the body reaches beyond [`max_world_coordinate`] of the slop, at the start or
+    /// the end of the step.
+    ///
+    /// [`max_world_coordinate`]: crate::geometry::max_world_coordinate
     CoordinatesTooLarge,
     /// The fixed step has zero or non-finite length.
     ZeroLengthStep,

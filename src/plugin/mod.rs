@@ -343,7 +343,9 @@ pub struct CcdConfig {
     /// Clamp or sub-step. The default is sub-stepping with up to 4 sub-steps.
     pub resolution: Resolution,
     /// Linear slop (m): the gap left at an impact and the scale of every tolerance. The
-    /// default is [`LINEAR_SLOP`] (0.005 m); scale it with your length unit.
+    /// default is [`LINEAR_SLOP`] (0.005 m); scale it with your length unit. It also sets
+    /// the coordinate limit, [`max_world_coordinate`](crate::geometry::max_world_coordinate)
+    /// (1,024 m at the default).
     pub linear_slop: f32,
     /// Length of a step (s) used to turn displacements into velocities. The default is
     /// `None`: the fixed timestep of `Time<Fixed>`.

@@ -20,8 +20,8 @@ use super::components::{
 use super::{CcdConfig, CcdImpact, Resolution};
 use crate::geometry::constants::MAX_SUBSTEPS;
 use crate::geometry::{
-    self, Aabb, BodyState, ImpactRecord, MAX_WORLD_COORDINATE, QUERY_GROUP, ResolveMode,
-    ShapeProxy, SolveSettings, StaticItem, StaticSet, solve_body,
+    self, Aabb, BodyState, ImpactRecord, Pose, QUERY_GROUP, ResolveMode, ShapeProxy, SolveSettings,
+    StaticItem, StaticSet, solve_body,
 };
 
 /// From this many bodies on, and when the static hierarchy is large enough
@@ -158,6 +158,8 @@ pub struct CcdWorkspace {
     statics: StaticSet,
     static_entities: Vec<Entity>,
     statics_ready: bool,
+    /// The coordinate limit the hierarchy was built with: a new slop rebuilds it.
+    statics_limit: f32,
     static_rebuilds: u64,
     bodies: Vec<BodyEntry>,
     lanes: Vec<Lane>,
@@ -589,7 +591,10 @@ pub(crate) struct StaticWatch<'w, 's> {
 /// [`StaticCollider`] and [`Collider`] (which is immutable for that reason), so the only scan
 /// left each step is the one a hook cannot replace: statics whose `Transform` changed. It reads
 /// one change tick per static (about 0.3 ns each; the three-filter scan it replaced cost 1 ns).
-fn update_statics(workspace: &mut CcdWorkspace, watch: &mut StaticWatch) {
+///
+/// A static any point of which is further than `limit` ([`geometry::max_world_coordinate`] of
+/// the slop) from the origin along an axis is ignored, with a warning.
+fn update_statics(workspace: &mut CcdWorkspace, watch: &mut StaticWatch, limit: f32) {
     let StaticWatch {
         statics,
         moved,
@@ -600,13 +605,16 @@ fn update_statics(workspace: &mut CcdWorkspace, watch: &mut StaticWatch) {
     let lost = lost_transform
         .read()
         .fold(false, |lost, entity| lost | is_static.contains(entity));
-    if workspace.statics_ready && !lost && moved.is_empty() {
+    if workspace.statics_ready && workspace.statics_limit == limit && !lost && moved.is_empty() {
         return;
     }
+    let within = |bounds: Aabb| bounds.min.abs().max(bounds.max.abs()).max_element() <= limit;
     let mut list: Vec<(Entity, StaticItem)> = statics
         .iter()
         .filter_map(|(entity, collider, transform)| match pose_of(transform) {
-            Some((position, angle)) if position.abs().max_element() <= MAX_WORLD_COORDINATE => {
+            Some((position, angle))
+                if within(collider.proxy().aabb(Pose::new(position, angle))) =>
+            {
                 Some((
                     entity,
                     StaticItem {
@@ -617,7 +625,10 @@ fn update_statics(workspace: &mut CcdWorkspace, watch: &mut StaticWatch) {
                 ))
             }
             _ => {
-                log::warn!("bevy_ccd: static {entity} has a non-finite or huge Transform; ignored");
+                log::warn!(
+                    "bevy_ccd: static {entity} has a non-finite Transform or reaches beyond \
+                     {limit} m from the origin (the limit at this slop); ignored"
+                );
                 None
             }
         })
@@ -631,6 +642,7 @@ fn update_statics(workspace: &mut CcdWorkspace, watch: &mut StaticWatch) {
         .statics
         .rebuild(list.into_iter().map(|(_, item)| item));
     workspace.statics_ready = true;
+    workspace.statics_limit = limit;
     workspace.static_rebuilds += 1;
 }
 
@@ -659,7 +671,8 @@ pub(crate) fn gather_bodies(
 ) {
     let dt = step_length(&config, time.as_deref());
     let workspace = workspace.as_mut();
-    update_statics(workspace, &mut watch);
+    let limit = geometry::max_world_coordinate(config.linear_slop);
+    update_statics(workspace, &mut watch, limit);
     let pool = pool(&config);
     // Lanes are cut from an upper bound of the bodies (every one the query matches), so that
     // each lane can start as soon as the listing has filled it (below).
@@ -772,7 +785,7 @@ pub(crate) fn gather_bodies(
                 body.error = Some(error);
                 continue;
             }
-            if let Err(error) = fill(body) {
+            if let Err(error) = fill(body, limit) {
                 body.error = Some(error);
                 continue;
             }
@@ -1029,18 +1042,25 @@ const SOLVE_BATCH: usize = 16;
 /// Checks one body's data and completes its entry's sweep, about the centre of mass. The
 /// mass is taken from the collider in the solve, when a [`BodyMass`] gave none and the body
 /// has targets in reach.
-fn fill(body: &mut BodyEntry) -> Result<(), CcdError> {
+///
+/// `limit` is [`geometry::max_world_coordinate`] of the slop: a body any point of which is
+/// further from the origin along an axis, at the start or the end of the step, is
+/// [`CcdError::CoordinatesTooLarge`].
+fn fill(body: &mut BodyEntry, limit: f32) -> Result<(), CcdError> {
     let raw = body.sweep;
     let motion = geometry::Sweep::from_origins(raw.local_center, raw.c0, raw.a0, raw.c1, raw.a1);
     if !motion.is_finite() {
         return Err(CcdError::NonFiniteTransform);
     }
+    // The centre of mass plus the reach about it bounds every point of the shape. A NaN reach
+    // passes here and is caught below.
     let big = motion
         .c0
         .abs()
         .max_element()
-        .max(motion.c1.abs().max_element());
-    if big > MAX_WORLD_COORDINATE {
+        .max(motion.c1.abs().max_element())
+        + body.reach;
+    if big > limit {
         return Err(CcdError::CoordinatesTooLarge);
     }
     let mass_ok = if body.flags & HAS_MASS != 0 {
