@@ -305,18 +305,21 @@ pub enum CcdSystems {
 #[derive(Reflect, Clone, Copy, Debug, PartialEq, Eq)]
 #[reflect(Debug, Clone, PartialEq)]
 pub enum Resolution {
-    /// The body's pose becomes its pose at the impact (at the target separation); the rest of
-    /// the step's motion is dropped. Its velocity (if it keeps a [`Velocity`]) still gets the
-    /// impact response. A body resting on a surface under gravity is hit at the start of every
-    /// step and so does not move at all in this mode (measured: 0 m of 50 m when sliding at
-    /// 10 m/s; a ball bouncing between walls travels 59 % of the sub-stepped distance): use
-    /// `SubStep` for sliding and bouncing.
+    /// At an impact with a target the body did not start the step touching, its pose becomes
+    /// its pose at the impact (at the target separation) and the rest of the step's motion is
+    /// dropped; its velocity (if it keeps a [`Velocity`]) still gets the impact response. The
+    /// contacts a body starts the step with (resting, sliding) get the response and the step
+    /// goes on, as in `SubStep`. A ball bouncing between walls travels 59 % of the sub-stepped
+    /// distance: use `SubStep` for bouncing.
     Clamp,
     /// Advance to the impact, respond with an impulse (restitution, friction, mass and
     /// inertia), spend the remaining fraction of the step from there with a new sweep, search
     /// again; after `max_substeps` impacts, clamp.
     SubStep {
-        /// The most impacts handled in one step. The default is 4.
+        /// The most impacts handled in one step after the first; contacts resolved without
+        /// advancing count too. The default is 4; values above
+        /// [`MAX_SUBSTEPS`](crate::geometry::constants::MAX_SUBSTEPS) (64) are capped there,
+        /// with one warning.
         max_substeps: u32,
     },
 }
