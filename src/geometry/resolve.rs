@@ -564,10 +564,14 @@ fn segment_box_gap(p0: Vec2, p1: Vec2, core: Aabb) -> f32 {
 /// The time of impact of the body against one target, with the handling of bodies that start
 /// the step touching or inside it:
 ///
-/// - touching or shallowly overlapping, moving deeper: a hit at 0 (the motion is stopped);
+/// - touching or shallowly overlapping, either end of the contact patch moving deeper: a hit
+///   at 0, which the solver answers with the response at that patch (the same points, so a
+///   contact found approaching is one the response changes);
 /// - touching or shallowly overlapping, moving apart or along: without rotation it cannot get
 ///   deeper, so it is clear; with rotation the target separation is lowered below the current
-///   one (never below `-slop / 2`), so the body may slide but not sink;
+///   one (not below `-slop / 2` from a start above it, always clear of the start), so the body
+///   may slide but not sink; a sharp corner too close for any band below it is moved out
+///   ([`PairOutcome::Nudge`]);
 /// - cores overlapping (deep): Box2D's fallback, the same query with a small circle at the
 ///   centre of mass; if the centre itself is inside a polygon target, motion that takes it
 ///   further in across the face it is nearest to is stopped, other motion is let through.
@@ -1144,6 +1148,13 @@ const ORDERED_TARGETS: usize = 32;
 /// reusable buffer; the impacts found are appended to `impacts`, in time order, and counted in
 /// the outcome. Deterministic: the outcome depends only on the inputs (targets are visited in
 /// an order that depends only on them, ties to the lower index).
+///
+/// Contacts the body starts a sweep with are responded to together as soon as one of them is
+/// driven into (Gauss-Seidel over them, [`CONTACT_PASSES`]), and the sweep goes on from there
+/// in both modes; an impact with a target it was not touching ends the step in
+/// [`ResolveMode::Clamp`]. Every loop is bounded: [`MAX_SUBSTEPS`] sub-steps, and
+/// [`MAX_CONTACTS_AT_ONE_POSE`] responses in a row without advancing, after which the body is
+/// wedged: it stays where it is, at rest.
 pub fn solve_body(
     body: &BodyState,
     statics: &StaticSet,
