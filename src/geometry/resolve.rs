@@ -1770,6 +1770,166 @@ mod tests {
             "only {exact_checked} closed forms checked"
         );
     }
+
+    /// The arena's floor (top face at y = -24.995), as one target.
+    fn floor() -> StaticSet {
+        let mut statics = StaticSet::default();
+        statics.rebuild([StaticItem {
+            proxy: Shape::from(Polygon::rectangle(25.01, 0.005).unwrap()).proxy(),
+            position: Vec2::new(0.0, -25.0),
+            angle: 0.0,
+        }]);
+        statics
+    }
+
+    /// Solves one body against `statics` (every target a candidate) in `mode`.
+    fn solve(body: &BodyState, statics: &StaticSet, mode: ResolveMode) -> BodyOutcome {
+        let candidates: Vec<u32> = (0..statics.items().len() as u32).collect();
+        let settings = SolveSettings {
+            mode,
+            linear_slop: crate::geometry::LINEAR_SLOP,
+            dt: 1.0 / 60.0,
+        };
+        solve_body(
+            body,
+            statics,
+            &candidates,
+            &settings,
+            &mut Vec::new(),
+            &mut Vec::new(),
+        )
+    }
+
+    /// A body at `(position, angle)` moving with `(v, w)` for a 60 Hz step.
+    fn moving(proxy: ShapeProxy, position: Vec2, angle: f32, v: Vec2, w: f32) -> BodyState {
+        let dt = 1.0 / 60.0;
+        BodyState {
+            proxy,
+            local_center: Vec2::ZERO,
+            mass: 0.05,
+            inertia: 0.002,
+            restitution: 0.5,
+            friction: 0.2,
+            sweep: Sweep::new(
+                Vec2::ZERO,
+                position,
+                angle,
+                position + v * dt,
+                angle + w * dt,
+            ),
+            velocity: Some((v, w)),
+            core_radius: 0.25 * proxy.radius,
+        }
+    }
+
+    /// A capsule 1.6 mm into the floor, leaving it at 120 m/s while spinning at 170 rad/s (a
+    /// case the arena froze for 600 steps): its start lay inside the band the lowered search
+    /// used, so it was hit at 0 with nothing to respond to, step after step. It must leave.
+    #[test]
+    fn a_spinning_body_leaving_a_floor_it_overlaps_moves_on() {
+        let capsule = Capsule::horizontal(0.333_051_15, 0.032_162_607).unwrap();
+        let body = moving(
+            Shape::from(capsule).proxy(),
+            Vec2::new(13.683_979, -24.906_374),
+            0.190_577_92,
+            Vec2::new(-23.801_376, 117.541_08),
+            172.021_97,
+        );
+        for mode in [ResolveMode::Clamp, ResolveMode::SubStep { max_substeps: 4 }] {
+            let out = solve(&body, &floor(), mode);
+            // Nothing stops it: it ends where its motion takes it, a step's flight away.
+            assert_eq!(out.impacts, 0, "{mode:?}: {out:?}");
+            assert!(
+                out.position.distance(body.sweep.c1) < 1e-5,
+                "{mode:?}: ended at {} instead of {}",
+                out.position,
+                body.sweep.c1
+            );
+        }
+    }
+
+    /// A box rolling on a corner along the floor at 570 m/s and 1,900 rad/s (the corner at
+    /// rest, every other point swinging down: another case the arena froze). Its contact barely
+    /// approaches; the response must leave it not approaching, and the body must advance.
+    #[test]
+    fn a_box_rolling_on_its_corner_advances() {
+        let body = moving(
+            Shape::from(Polygon::rectangle(0.121_298_835, 0.266_533_26).unwrap()).proxy(),
+            Vec2::new(23.155_907, -24.719_843),
+            2.367_846_7,
+            Vec2::new(538.6447, -192.960_36),
+            -1939.062,
+        );
+        for mode in [ResolveMode::Clamp, ResolveMode::SubStep { max_substeps: 4 }] {
+            let out = solve(&body, &floor(), mode);
+            assert!(
+                out.position.distance(body.sweep.c0) > 1e-3,
+                "{mode:?}: did not move: {out:?}"
+            );
+            assert!(out.failure.is_none(), "{mode:?}: {out:?}");
+        }
+    }
+
+    /// A ball wedged in a V between two slopes under gravity: the responses push it from one
+    /// slope into the other. It stays where it is, at rest, after a bounded number of impacts.
+    #[test]
+    fn a_wedged_body_stays_at_rest_after_bounded_work() {
+        let slope = |x: f32, angle: f32| StaticItem {
+            proxy: Shape::from(Polygon::rectangle(1.0, 0.05).unwrap()).proxy(),
+            position: Vec2::new(x, 0.0),
+            angle,
+        };
+        let mut statics = StaticSet::default();
+        // Two slabs leaning in, 45 degrees each, their upper faces 0.2 m apart at the ball.
+        statics.rebuild([
+            slope(-0.55, -core::f32::consts::FRAC_PI_4),
+            slope(0.55, core::f32::consts::FRAC_PI_4),
+        ]);
+        let ball = Shape::from(Circle::new(0.3).unwrap()).proxy();
+        // Find the height at which the ball rests against both faces (the slop apart).
+        let touching = |y: f32| {
+            let pose = Pose::new(Vec2::new(0.0, y), 0.0);
+            statics
+                .items()
+                .iter()
+                .map(|t| super::separation(&ball, pose, t))
+                .fold(f32::INFINITY, f32::min)
+        };
+        let (mut lo, mut hi) = (-2.0f32, 2.0f32);
+        for _ in 0..60 {
+            let mid = 0.5 * (lo + hi);
+            if touching(mid) < crate::geometry::LINEAR_SLOP {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        let body = moving(ball, Vec2::new(0.0, hi), 0.0, Vec2::new(0.0, -0.5), 3.0);
+        for mode in [
+            ResolveMode::Clamp,
+            ResolveMode::SubStep {
+                max_substeps: u32::MAX,
+            },
+        ] {
+            let out = solve(&body, &statics, mode);
+            assert!(out.substeps <= MAX_SUBSTEPS, "{mode:?}: {out:?}");
+            assert!(
+                out.impacts <= (MAX_SUBSTEPS + 1) * MAX_CONTACTS as u32,
+                "{mode:?}: {out:?}"
+            );
+            // Not driven deeper into either slope than it started.
+            let end = Pose::new(out.position, out.angle);
+            let gap = statics
+                .items()
+                .iter()
+                .map(|t| super::separation(&ball, end, t))
+                .fold(f32::INFINITY, f32::min);
+            assert!(gap >= 0.0, "{mode:?}: {gap} m into a slope");
+            let (v, w) = out.velocity.unwrap();
+            // Moving down into the V is impossible: whatever it keeps, it does not approach.
+            assert!(v.y >= -1e-4, "{mode:?}: still falling at {v}, {w}");
+        }
+    }
 }
 
 #[cfg(test)]
