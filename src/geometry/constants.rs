@@ -173,11 +173,12 @@ pub const MAX_SUBSTEPS: u32 = 64;
 
 /// The most impacts in a row a body may resolve without advancing (it starts a sweep touching
 /// targets, is responded to, and touches again at once) before it is left where it is for the
-/// rest of the step, with the velocity those responses gave it.
+/// rest of the step.
 ///
-/// One contact at the start of a step is the common case (a body resting on a floor); a body in
-/// a corner touches two walls. More than that means the responses push the body from one
-/// target into another: it is squeezed, and trying again would only repeat the cycle.
+/// One contact at the start of a step is the common case (a body resting on a floor), and the
+/// contacts it starts with are responded to together. Two responses in a row without advancing
+/// already mean the body is wedged: it is left where it ends, at rest (zero velocity), since no
+/// velocity the responses leave can move it; the cap only bounds the work of the sub-step loop.
 pub const MAX_CONTACTS_AT_ONE_POSE: u32 = 8;
 
 /// The most targets a body responds to at once when it starts a sweep touching them (more are
