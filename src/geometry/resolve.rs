@@ -340,20 +340,22 @@ pub struct BodyOutcome {
     pub nudged: bool,
 }
 
-/// What one pair test found. `touch` is the contact (point, normal toward the target) when the
-/// body starts the sweep touching the target: [`solve_body`] responds to every such contact
-/// together once one of them is driven into.
+/// What one pair test found. `touch` is the contact (point, normal toward the target, surface
+/// separation) when the body starts the sweep touching the target: [`solve_body`] responds to
+/// every such contact together once one of them is driven into. A hit's `separation` is the
+/// surface separation at it.
 enum PairOutcome {
     Clear {
         overlapping: bool,
-        touch: Option<(Vec2, Vec2)>,
+        touch: Option<(Vec2, Vec2, f32)>,
     },
     Hit {
         fraction: f32,
         point: Vec2,
         normal: Vec2,
+        separation: f32,
         overlapping: bool,
-        touch: Option<(Vec2, Vec2)>,
+        touch: Option<(Vec2, Vec2, f32)>,
     },
     Failed {
         fraction: f32,
@@ -612,6 +614,7 @@ fn pair_toi(
             fraction: out.fraction,
             point: out.point,
             normal: out.normal,
+            separation: out.separation,
             overlapping: false,
             touch: None,
         },
@@ -621,7 +624,7 @@ fn pair_toi(
         },
         ToiState::Hit | ToiState::Overlapped => {
             let overlapping = out.separation < 0.0;
-            let touch = Some((out.point, out.normal));
+            let touch = Some((out.point, out.normal, out.separation));
             if out.normal == Vec2::ZERO {
                 return core_fallback(body, sweep, target, slop, input);
             }
@@ -642,6 +645,7 @@ fn pair_toi(
                     fraction: 0.0,
                     point: out.point,
                     normal: out.normal,
+                    separation: out.separation,
                     overlapping,
                     touch,
                 };
@@ -691,6 +695,7 @@ fn pair_toi(
                 ToiState::Hit | ToiState::Overlapped => PairOutcome::Hit {
                     fraction: out2.fraction,
                     point: out2.point,
+                    separation: out2.separation,
                     normal: if out2.normal == Vec2::ZERO {
                         out.normal
                     } else {
@@ -726,6 +731,7 @@ fn core_fallback(
             fraction: out.fraction,
             point: out.point,
             normal: out.normal,
+            separation: out.separation,
             overlapping: true,
             touch: None,
         },
@@ -742,12 +748,15 @@ fn core_fallback(
                     0.01 * separation_tolerance(slop),
                 )
             {
+                // The cores overlap: deeper than any band, the separation counts as minus the
+                // slop (pushed out at the most, see `solve_body`).
                 PairOutcome::Hit {
                     fraction: 0.0,
                     point: out.point,
                     normal: out.normal,
+                    separation: -slop,
                     overlapping: true,
-                    touch: Some((out.point, out.normal)),
+                    touch: Some((out.point, out.normal, -slop)),
                 }
             } else if out.normal == Vec2::ZERO
                 && let Some((exit, depth)) = exit_face(target, sweep.c0)
@@ -759,8 +768,9 @@ fn core_fallback(
                     fraction: 0.0,
                     point: sweep.c0 + depth * exit,
                     normal: -exit,
+                    separation: -slop,
                     overlapping: true,
-                    touch: Some((sweep.c0 + depth * exit, -exit)),
+                    touch: Some((sweep.c0 + depth * exit, -exit, -slop)),
                 }
             } else {
                 PairOutcome::Clear {
@@ -1122,21 +1132,6 @@ fn point_impulse(body: &ResponseBody, velocity: (DVec2, f64), r: DVec2) -> (DVec
     (v + settle * inv_m * normal, w + rn * settle * inv_i)
 }
 
-/// The surface separation (m, radii included) of a body at `pose` from `target`.
-fn separation(proxy: &ShapeProxy, pose: Pose, target: &StaticItem) -> f32 {
-    shape_distance(
-        &DistanceInput {
-            proxy_a: proxy,
-            proxy_b: &target.proxy,
-            pose_a: pose,
-            pose_b: Pose::new(target.position, target.angle),
-            use_radii: true,
-        },
-        &mut SimplexCache::default(),
-    )
-    .distance
-}
-
 /// Targets of one sweep that [`solve_body`] orders on the stack by when the body can first
 /// reach them (a swept box rarely holds more than a handful).
 const ORDERED_TARGETS: usize = 32;
@@ -1233,11 +1228,11 @@ pub fn solve_body(
         }
         let visits = if short { ordered } else { list.len() };
         // Earliest hit; ties go to the lowest target index.
-        let mut best: Option<(f32, u32, Vec2, Vec2, bool)> = None;
+        let mut best: Option<(f32, u32, Vec2, Vec2, f32, bool)> = None;
         let mut failed: Option<(f32, ToiFailure)> = None;
         // Every target the body touches at the start of the sweep: once it drives into one,
         // they are responded to together (a body in a corner).
-        let mut touching = [(0u32, Vec2::ZERO, Vec2::ZERO); MAX_CONTACTS];
+        let mut touching = [(0u32, Vec2::ZERO, Vec2::ZERO, 0.0f32); MAX_CONTACTS];
         let mut touches = 0;
         let mut nudge = None;
         for visit in 0..visits {
@@ -1283,10 +1278,10 @@ pub fn solve_body(
             ) {
                 PairOutcome::Clear { overlapping, touch } => {
                     result.started_overlapping |= overlapping && first;
-                    if let Some((point, normal)) = touch
+                    if let Some((point, normal, gap)) = touch
                         && touches < MAX_CONTACTS
                     {
-                        touching[touches] = (index, point, normal);
+                        touching[touches] = (index, point, normal, gap);
                         touches += 1;
                     }
                 }
@@ -1294,17 +1289,19 @@ pub fn solve_body(
                     fraction,
                     point,
                     normal,
+                    separation,
                     overlapping,
                     touch,
                 } => {
                     result.started_overlapping |= overlapping && first;
                     if best.is_none_or(|b| fraction < b.0 || (fraction == b.0 && index < b.1)) {
-                        best = Some((fraction, index, point, normal, touch.is_some()));
+                        let resting = touch.is_some();
+                        best = Some((fraction, index, point, normal, separation, resting));
                     }
-                    if let Some((point, normal)) = touch
+                    if let Some((point, normal, gap)) = touch
                         && touches < MAX_CONTACTS
                     {
-                        touching[touches] = (index, point, normal);
+                        touching[touches] = (index, point, normal, gap);
                         touches += 1;
                     }
                 }
@@ -1344,7 +1341,7 @@ pub fn solve_body(
                 break;
             }
         }
-        let Some((fraction, index, point, normal, resting)) = best else {
+        let Some((fraction, index, point, normal, gap, resting)) = best else {
             result.position = sweep.pose_at(1.0).p;
             result.angle = sweep.a1;
             break;
@@ -1353,7 +1350,7 @@ pub fn solve_body(
         let contacts = if fraction == 0.0 {
             &touching[..touches]
         } else {
-            &[(index, point, normal)][..]
+            &[(index, point, normal, gap)][..]
         };
         let center = sweep.center_at(fraction);
         let angle = sweep.angle_at(fraction);
@@ -1363,7 +1360,8 @@ pub fn solve_body(
         // turned into a lowered band, see `pair_toi`) is sent back toward them over a step,
         // at most one slop a step, so that repeated contacts do not creep ever closer.
         let mut patches = [((Vec2::ZERO, Vec2::ZERO), Vec2::ZERO, 0.0); MAX_CONTACTS];
-        for (patch, &(index, point, normal)) in patches.iter_mut().zip(contacts) {
+        let hits_at = target_separation(slop) - separation_tolerance(slop);
+        for (patch, &(index, point, normal, gap)) in patches.iter_mut().zip(contacts) {
             impacts.push(ImpactRecord {
                 target: index,
                 fraction: step_fraction,
@@ -1372,8 +1370,6 @@ pub fn solve_body(
             });
             let target = &statics.items[index as usize];
             let (a, b) = contact_patch(&body.proxy, pose, target, normal, point, slop);
-            let gap = separation(&body.proxy, pose, target);
-            let hits_at = target_separation(slop) - separation_tolerance(slop);
             let push = (hits_at - gap).clamp(0.0, slop) / ((1.0 - step_fraction).max(0.25) * dt);
             *patch = ((a - center, b - center), -normal, push);
         }
@@ -1771,6 +1767,12 @@ mod tests {
         );
     }
 
+    /// The surface separation (m, radii included) of a body at `pose` from `target`.
+    fn gap(proxy: &ShapeProxy, pose: Pose, target: &StaticItem) -> f32 {
+        let sweep = Sweep::stationary(Vec2::ZERO, pose.p, pose.q.angle());
+        separation(proxy, &sweep, target, 0.0)
+    }
+
     /// The arena's floor (top face at y = -24.995), as one target.
     fn floor() -> StaticSet {
         let mut statics = StaticSet::default();
@@ -1892,7 +1894,7 @@ mod tests {
             statics
                 .items()
                 .iter()
-                .map(|t| super::separation(&ball, pose, t))
+                .map(|t| gap(&ball, pose, t))
                 .fold(f32::INFINITY, f32::min)
         };
         let (mut lo, mut hi) = (-2.0f32, 2.0f32);
@@ -1922,7 +1924,7 @@ mod tests {
             let gap = statics
                 .items()
                 .iter()
-                .map(|t| super::separation(&ball, end, t))
+                .map(|t| gap(&ball, end, t))
                 .fold(f32::INFINITY, f32::min);
             assert!(gap >= 0.0, "{mode:?}: {gap} m into a slope");
             let (v, w) = out.velocity.unwrap();
