@@ -25,8 +25,9 @@
 //! ([`oracle::score_model`]). A peer's odd output (an error, a failed status, a fraction that
 //! is not a number in `[0, 1]`, a panic) scores *failed*; it never stops the run.
 //!
-//! The family `separated` is generated ([`oracle::separated_cases`]): pairs whose swept boxes
-//! overlap but that stay apart, as most candidate pairs of a scene do.
+//! The families `separated` and `near_miss` are generated ([`oracle::separated_cases`]): pairs
+//! whose swept boxes overlap but that stay apart, as most candidate pairs of a scene do; in
+//! `near_miss` the discs that bound the two shapes do meet, so only the shapes can tell.
 //!
 //! # Timing
 //!
@@ -71,7 +72,8 @@ use std::time::{Duration, Instant, SystemTime};
 use bevy_ccd::geometry::{ToiInput, ToiOutput, time_of_impact};
 use criterion::{Criterion, Throughput};
 use oracle::{
-    Case, Model, Reported, SEPARATED_FAMILY, Verdict, load_cases, score_model, separated_cases,
+    Case, Model, NEAR_MISS_FAMILY, Reported, SEPARATED_FAMILY, Verdict, load_cases, score_model,
+    separated_cases,
 };
 use parry2d::math::{Pose, Vector};
 use parry2d::query::sweep_toi::{
@@ -81,7 +83,7 @@ use parry2d::query::{NonlinearRigidMotion, ShapeCastStatus, cast_shapes_nonlinea
 use parry2d::shape::{Ball, Capsule, ConvexPolygon, RoundShape, Segment, Shape};
 
 /// The families: the README's, in its order, then the generated one.
-const FAMILIES: [&str; 7] = [
+const FAMILIES: [&str; 8] = [
     "random",
     "bullet",
     "spinning",
@@ -89,9 +91,10 @@ const FAMILIES: [&str; 7] = [
     "grazing",
     "edge",
     SEPARATED_FAMILY,
+    NEAR_MISS_FAMILY,
 ];
 
-/// Generated cases of the `separated` family.
+/// Generated cases of each of the `separated` and `near_miss` families.
 const SEPARATED_CASES: usize = 200;
 
 /// The speed target: ours over each target peer, by the per-case rule.
@@ -1024,7 +1027,10 @@ fn main() {
     let selected = selected_families();
     let mut cases = load_cases();
     if selected.contains(&SEPARATED_FAMILY) {
-        cases.extend(separated_cases(SEPARATED_CASES));
+        cases.extend(separated_cases(SEPARATED_CASES, false));
+    }
+    if selected.contains(&NEAR_MISS_FAMILY) {
+        cases.extend(separated_cases(SEPARATED_CASES, true));
     }
     // Peers' panics are caught and scored as failures; keep their messages off the output.
     let hook = std::panic::take_hook();

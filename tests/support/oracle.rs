@@ -460,8 +460,10 @@ pub fn score_model(
 // Generated cases: pairs that never come close
 // ---------------------------------------------------------------------------------------------
 
-/// The family name of [`separated_cases`].
+/// The family name of [`separated_cases`] with `near = false`.
 pub const SEPARATED_FAMILY: &str = "separated";
+/// The family name of [`separated_cases`] with `near = true`.
+pub const NEAR_MISS_FAMILY: &str = "near_miss";
 
 /// A small deterministic generator (SplitMix64, Steele, Lea and Flood, OOPSLA 2014), so the
 /// generated cases are the same on every run and machine.
@@ -545,14 +547,21 @@ fn reach(shape: &ShapeJson, center: [f32; 2]) -> f64 {
 /// `count` pairs whose swept bounding boxes overlap (so a broad phase would pair them) but that
 /// stay at least 0.03 m apart over the whole step under both rotation models: the pairs most
 /// candidate pairs of a scene are. Turns stay below 2 rad, so both models have a reference.
+/// With `near`, only pairs whose bounding discs (about the centres of mass) do meet during the
+/// step: near misses, which no test on the discs alone can settle.
 ///
 /// The reference is found by sampling `d(t)` densely enough that the surfaces cannot close the
 /// gap between two samples: with `V` a bound on the relative speed of any two core points over
 /// the unit step, `d` moves by at most `V h` between samples `h` apart, so the minimum lies
 /// within `V h / 2` of the smallest sample. Under nlerp the angular speed peaks at
 /// `2 tan(|a1 - a0| / 2)` (at `t = 1/2`, where the blend is shortest), which `V` uses.
-pub fn separated_cases(count: usize) -> Vec<Case> {
-    let mut rng = SplitMix(0x5EED_CA5E);
+pub fn separated_cases(count: usize, near: bool) -> Vec<Case> {
+    let family = if near {
+        NEAR_MISS_FAMILY
+    } else {
+        SEPARATED_FAMILY
+    };
+    let mut rng = SplitMix(if near { 0x0EA5_1115 } else { 0x5EED_CA5E });
     let mut cases = Vec::with_capacity(count);
     while cases.len() < count {
         let a = random_shape(&mut rng);
@@ -584,8 +593,8 @@ pub fn separated_cases(count: usize) -> Vec<Case> {
         let start = [rng.range(-4.0, 4.0), rng.range(-4.0, 4.0)];
         let sweep_b = sweep(&mut rng, start, true);
         let mut case = Case {
-            id: format!("{SEPARATED_FAMILY}-{:04}", cases.len()),
-            family: SEPARATED_FAMILY.into(),
+            id: format!("{family}-{:04}", cases.len()),
+            family: family.into(),
             a,
             b,
             sweep_a,
@@ -601,7 +610,7 @@ pub fn separated_cases(count: usize) -> Vec<Case> {
                 nlerp: None,
             },
         };
-        if !swept_boxes_overlap(&case) {
+        if !swept_boxes_overlap(&case) || (near && discs_apart(&case)) {
             continue;
         }
         let (Some(angle), Some(nlerp)) = (
@@ -617,6 +626,30 @@ pub fn separated_cases(count: usize) -> Vec<Case> {
         cases.push(case);
     }
     cases
+}
+
+/// Whether the discs about the centres of mass that hold the cores stay apart over the step
+/// (the centres move on straight lines; their closest approach is in closed form).
+fn discs_apart(case: &Case) -> bool {
+    let (sa, sb) = (&case.sweep_a, &case.sweep_b);
+    let d0 = [
+        f64::from(sb.c0[0] - sa.c0[0]),
+        f64::from(sb.c0[1] - sa.c0[1]),
+    ];
+    let dv = [
+        f64::from((sb.c1[0] - sb.c0[0]) - (sa.c1[0] - sa.c0[0])),
+        f64::from((sb.c1[1] - sb.c0[1]) - (sa.c1[1] - sa.c0[1])),
+    ];
+    let dv2 = dv[0] * dv[0] + dv[1] * dv[1];
+    let t = if dv2 > 0.0 {
+        (-(d0[0] * dv[0] + d0[1] * dv[1]) / dv2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    let gap = (d0[0] + t * dv[0]).hypot(d0[1] + t * dv[1]);
+    let r =
+        |shape: &ShapeJson, s: &SweepJson| reach(shape, s.local_center) + f64::from(shape.radius);
+    gap > r(&case.a, &case.sweep_a) + r(&case.b, &case.sweep_b)
 }
 
 /// Whether the boxes around the discs that hold each shape over its sweep overlap.
