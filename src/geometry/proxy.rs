@@ -70,6 +70,20 @@ impl ShapeProxy {
         self.points[index]
     }
 
+    /// True when the radius and every coordinate of the core are at most `bound` in magnitude
+    /// (false for NaN).
+    ///
+    /// The slots past `count` hold zeros (every constructor fills them so), so all slots are
+    /// tested: no branch on the count, and a fixed-length loop the compiler vectorises.
+    #[inline]
+    pub(crate) fn within(&self, bound: f32) -> bool {
+        let mut all = self.radius <= bound;
+        for p in &self.points {
+            all &= (p.x.abs() <= bound) & (p.y.abs() <= bound);
+        }
+        all
+    }
+
     /// The index of the core point farthest along `direction` (the first one on ties, so the
     /// answer is deterministic).
     #[inline]

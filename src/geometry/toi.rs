@@ -657,33 +657,30 @@ fn certify(
 #[inline]
 fn all_in_bounds(sweep: &Sweep, proxy: &ShapeProxy) -> bool {
     let m = MAX_WORLD_COORDINATE;
-    let ok = |v: Vec2| v.x.abs() <= m && v.y.abs() <= m;
-    let mut all = ok(sweep.c0) & ok(sweep.c1) & ok(sweep.local_center);
-    all &= sweep.a0.abs() <= m && sweep.a1.abs() <= m && proxy.radius <= m;
-    for &p in proxy.points() {
-        all &= ok(p);
-    }
-    all
+    let ok = |v: Vec2| (v.x.abs() <= m) & (v.y.abs() <= m);
+    ok(sweep.c0)
+        & ok(sweep.c1)
+        & ok(sweep.local_center)
+        & (sweep.a0.abs() <= m)
+        & (sweep.a1.abs() <= m)
+        & proxy.within(m)
 }
 
 /// Checks the input: a branch-light test that valid input passes, and the detailed checks
 /// (which say what is wrong) only when it fails.
 fn validate(input: &ToiInput) -> Result<(), ToiFailure> {
     let c = &input.config;
+    let body_ok = |sweep: &Sweep, proxy: &ShapeProxy| {
+        (proxy.radius >= 0.0)
+            & (1..=MAX_POLYGON_VERTICES).contains(&proxy.count())
+            & all_in_bounds(sweep, proxy)
+    };
     let valid = c.linear_slop.is_finite()
-        && c.linear_slop > 0.0
-        && (0.0..=1.0).contains(&input.max_fraction)
-        && c.target_separation.is_none_or(f32::is_finite)
-        && [
-            (&input.sweep_a, &input.proxy_a),
-            (&input.sweep_b, &input.proxy_b),
-        ]
-        .iter()
-        .all(|(sweep, proxy)| {
-            proxy.radius >= 0.0
-                && (1..=MAX_POLYGON_VERTICES).contains(&proxy.count())
-                && all_in_bounds(sweep, proxy)
-        });
+        & (c.linear_slop > 0.0)
+        & (0.0..=1.0).contains(&input.max_fraction)
+        & c.target_separation.is_none_or(f32::is_finite)
+        & body_ok(&input.sweep_a, &input.proxy_a)
+        & body_ok(&input.sweep_b, &input.proxy_b);
     if valid { Ok(()) } else { diagnose(input) }
 }
 
