@@ -430,6 +430,12 @@ impl<'a> SeparationFunction<'a> {
         self.min_separation(t).3
     }
 
+    /// The separation of the given witness points at `t`.
+    #[inline]
+    fn evaluate(&self, ia: usize, ib: usize, t: f32) -> f32 {
+        self.evaluate_at(ia, ib, self.motion_a.pose(t), self.motion_b.pose(t))
+    }
+
     /// The separation of the given witness points at the given poses.
     #[inline]
     fn evaluate_at(&self, ia: usize, ib: usize, xf_a: Pose, xf_b: Pose) -> f32 {
@@ -520,10 +526,9 @@ impl MotionBounds {
     }
 }
 
-/// Solves `s(t) = target` on `[a1, a2]` where `s(a1) > target > s(a2)`, given both bodies'
-/// poses at `a1`. Returns the root, the iterations and the poses at the root, or the left end
-/// of the last bracket (where `s > target`, so still clear) and its poses if the iterations ran
-/// out. The poses come back so the caller need not turn the bodies to the same time again.
+/// Solves `s(t) = target` on `[a1, a2]` where `s(a1) > target > s(a2)`. Returns the root and
+/// the iterations, or the left end of the last bracket (where `s > target`, so still clear) if
+/// the iterations ran out.
 ///
 /// The method is Anderson–Björck regula falsi (N. Anderson and Å. Björck, "A new high order
 /// method of regula falsi type for computing a root of an equation", BIT 13, 1973), with a
@@ -546,8 +551,7 @@ fn find_root(
     s1: f32,
     mut a2: f32,
     s2: f32,
-    mut poses1: (Pose, Pose),
-) -> (f32, u32, (Pose, Pose)) {
+) -> (f32, u32) {
     // g > 0 at a1, g < 0 at a2; the scaled values the secant uses.
     let (mut g1, mut g2) = (s1 - target, s2 - target);
     // Which end the last step replaced: 1, 2, or 0 for none yet.
@@ -569,10 +573,9 @@ fn find_root(
             secant
         };
         iterations += 1;
-        let poses = (f.motion_a.pose(t), f.motion_b.pose(t));
-        let s = f.evaluate_at(ia, ib, poses.0, poses.1);
+        let s = f.evaluate(ia, ib, t);
         if (s - target).abs() < tolerance {
-            return (t, iterations, poses);
+            return (t, iterations);
         }
         let g = s - target;
         if g > 0.0 {
@@ -582,7 +585,6 @@ fn find_root(
             }
             a1 = t;
             g1 = g;
-            poses1 = poses;
             last = 1;
         } else {
             if last == 2 {
@@ -594,7 +596,7 @@ fn find_root(
             last = 2;
         }
         if iterations == ROOT_MAX_ITERATIONS || a2 - a1 <= f32::EPSILON * a2 {
-            return (a1, iterations, poses1);
+            return (a1, iterations);
         }
     }
 }
@@ -843,14 +845,10 @@ fn search(input: &ToiInput, frame_a: BodyFrame, frame_b: BodyFrame, start: f32) 
     // The end of the current search window: the whole interval at first, a sub-interval after
     // a certification that could prove only a prefix.
     let mut t_end = t_max;
-    // Poses already computed at some time, for the next advance if it starts there.
-    let mut known: Option<(f32, (Pose, Pose))> = None;
 
     loop {
-        let (xf_a, xf_b) = match known {
-            Some((t, poses)) if t == t1 => poses,
-            _ => (motion_a.pose(t1), motion_b.pose(t1)),
-        };
+        let xf_a = motion_a.pose(t1);
+        let xf_b = motion_b.pose(t1);
         let distance = shape_distance(
             &DistanceInput {
                 proxy_a,
@@ -901,14 +899,11 @@ fn search(input: &ToiInput, frame_a: BodyFrame, frame_b: BodyFrame, start: f32) 
         // Push-back on the window [t1, t_end]: resolve the deepest points, at most once per
         // vertex.
         let mut t2 = t_end;
-        // The poses at `t2`, carried from the root finder to the push-back, the certification
-        // and the next advance, which all look at the shapes there.
-        let mut xf2 = (motion_a.pose(t2), motion_b.pose(t2));
         let mut s2_bound = f32::NAN;
         let mut s2_witness = f32::NAN;
         let mut advance = true;
         for _ in 0..MAX_POLYGON_VERTICES {
-            let (ia, ib, s2, bound) = f.min_separation_at(xf2.0, xf2.1);
+            let (ia, ib, s2, bound) = f.min_separation(t2);
             s2_bound = bound;
             s2_witness = s2;
             if s2 > target - tolerance {
@@ -931,15 +926,13 @@ fn search(input: &ToiInput, frame_a: BodyFrame, frame_b: BodyFrame, start: f32) 
                 out.state = ToiState::Hit;
                 return out;
             }
-            let (root, iterations, poses) =
-                find_root(&f, ia, ib, target, tolerance, t1, s1, t2, s2, (xf_a, xf_b));
+            let (root, iterations) = find_root(&f, ia, ib, target, tolerance, t1, s1, t2, s2);
             out.root_iterations += iterations;
             if root <= t1 {
                 advance = false;
                 break;
             }
             t2 = root;
-            xf2 = poses;
             s2_bound = f32::NAN;
         }
         if linear && advance && t2 > t1 {
@@ -952,14 +945,13 @@ fn search(input: &ToiInput, frame_a: BodyFrame, frame_b: BodyFrame, start: f32) 
                 t_end = t_max;
             }
             t1 = t2;
-            known = Some((t2, xf2));
             continue;
         }
         if s1_bound.is_nan() {
             s1_bound = f.min_separation_at(xf_a, xf_b).3;
         }
         if advance && s2_bound.is_nan() {
-            s2_bound = f.min_separation_at(xf2.0, xf2.1).3;
+            s2_bound = f.lower_bound(t2);
         }
 
         // Certify the interval the advance would skip.
@@ -1003,6 +995,5 @@ fn search(input: &ToiInput, frame_a: BodyFrame, frame_b: BodyFrame, start: f32) 
             t_end = unproven_end.max(reached);
         }
         t1 = reached;
-        known = Some((t2, xf2));
     }
 }
