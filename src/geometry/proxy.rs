@@ -18,6 +18,9 @@ pub struct ShapeProxy {
     count: u8,
     /// The rounding radius around the core (m).
     pub radius: f32,
+    /// The largest distance of a core point from the local origin (m), kept so that a query
+    /// can bound the shape's reach without a pass over its points and a square root.
+    extent: f32,
 }
 
 impl ShapeProxy {
@@ -49,7 +52,18 @@ impl ShapeProxy {
             points: p,
             count: points.len() as u8,
             radius,
+            extent: points
+                .iter()
+                .map(|q| q.length_squared())
+                .fold(0.0, f32::max)
+                .sqrt(),
         }
+    }
+
+    /// The largest distance of a core point from the local origin (m), radius not included.
+    #[inline]
+    pub fn extent(&self) -> f32 {
+        self.extent
     }
 
     /// The core points.

@@ -57,7 +57,7 @@ use super::constants::{
     ROOT_MAX_ITERATIONS, TOI_MAX_ITERATIONS, separation_tolerance, target_separation,
 };
 use super::gjk::{DistanceInput, SimplexCache, shape_distance};
-use super::math::{Pose, Rot, right_perp};
+use super::math::{Pose, Rot, cross, right_perp};
 use super::proxy::ShapeProxy;
 use super::sweep::Sweep;
 
@@ -199,7 +199,7 @@ fn reduced_angle(a0: f32) -> f32 {
 /// the same sweep (a body against each of its candidate targets, or a static target against
 /// every body) computes it once and passes it to [`time_of_impact_framed`]; the answer is
 /// bit-identical to [`time_of_impact`]'s, except where [`time_of_impact`] proves a pair apart
-/// by its bounding discs alone (then both say `Separated`, with different counters).
+/// by bounding discs alone (then both say `Separated`, with different counters).
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct BodyFrame {
     q0: Rot,
@@ -743,9 +743,24 @@ pub fn time_of_impact(input: &ToiInput) -> ToiOutput {
     if let Err(failure) = validate(input) {
         return ToiOutput::failed(failure, 0.0);
     }
-    let frame_a = BodyFrame::new(&input.sweep_a, &input.proxy_a);
-    let frame_b = BodyFrame::new(&input.sweep_b, &input.proxy_b);
-    if discs_apart(input, frame_a.reach, frame_b.reach) {
+    let any_rotation = input.sweep_a.a1 != input.sweep_a.a0 || input.sweep_b.a1 != input.sweep_b.a0;
+    // The search uses the reach only in its motion bounds, always multiplied by an angular
+    // speed: without rotation it is not needed, and the disc test makes do with a bound from
+    // the proxy's extent (no pass over the points, no square root).
+    let (frame_a, frame_b, reach) = if any_rotation {
+        let frame_a = BodyFrame::new(&input.sweep_a, &input.proxy_a);
+        let frame_b = BodyFrame::new(&input.sweep_b, &input.proxy_b);
+        (frame_a, frame_b, frame_a.reach + frame_b.reach)
+    } else {
+        let l1 = |v: Vec2| v.x.abs() + v.y.abs();
+        let bound = |sweep: &Sweep, proxy: &ShapeProxy| proxy.extent() + l1(sweep.local_center);
+        (
+            BodyFrame::with_reach(&input.sweep_a, 0.0),
+            BodyFrame::with_reach(&input.sweep_b, 0.0),
+            bound(&input.sweep_a, &input.proxy_a) + bound(&input.sweep_b, &input.proxy_b),
+        )
+    };
+    if discs_apart(input, reach) {
         return ToiOutput {
             state: ToiState::Separated,
             fraction: input.max_fraction,
@@ -755,38 +770,49 @@ pub fn time_of_impact(input: &ToiInput) -> ToiOutput {
     search(input, frame_a, frame_b, 0.0)
 }
 
-/// Whether the discs that hold the two shapes stay out of hit range over the whole interval,
+/// Whether discs that hold the two shapes stay out of hit range over the whole interval,
 /// which proves the pair `Separated` without GJK: the cheap end of the common case, a
 /// candidate pair of a scene that passes at a distance.
 ///
-/// Every core point of a body stays within its reach of its centre of mass, whatever the
-/// rotation, and the centres move on straight lines, so the core distance is at least
-/// `|d(t)| - reach_a - reach_b` with `d(t) = d0 + t dv` the vector between the centres. Its
-/// smallest length on `[0, t_max]` is at `t = clamp(-d0·dv / |dv|², 0, t_max)`. The test asks
-/// for the hit range (`target + tolerance`) plus a relative margin of about a hundred `f32`
-/// roundings of the lengths involved, so rounding in `d0`, `dv` and the reaches cannot
-/// decide it.
+/// `reach` bounds the distance of any core point of A from A's centre of mass plus the same
+/// for B, whatever the rotation (the exact reaches, or `extent + |local_center|` each). The
+/// centres move on straight lines, so the core distance is at least `|d(t)| - reach` with
+/// `d(t) = d0 + t dv` the vector between the centres. On `[0, t_max]`, `|d(t)|` is smallest at `t = 0`
+/// when `d0·dv >= 0`, at `t_max` when `-d0·dv >= t_max |dv|²`, and otherwise at the foot of the
+/// perpendicular, where `|d|² = cross(d0, dv)² / |dv|²`. The test `|d| > R` is made on squares,
+/// with that last one multiplied out: no square root, no division, so it costs the pairs it
+/// cannot settle next to nothing. The hit range is the search's `target + tolerance`; a
+/// relative margin of about a hundred `f32` roundings of the lengths involved (in the 1-norm,
+/// which bounds the 2-norm) keeps rounding from deciding it.
 #[inline]
-fn discs_apart(input: &ToiInput, reach_a: f32, reach_b: f32) -> bool {
-    let sa = &input.sweep_a;
-    let sb = &input.sweep_b;
+fn discs_apart(input: &ToiInput, reach: f32) -> bool {
+    let (sa, sb) = (&input.sweep_a, &input.sweep_b);
+    let (pa, pb) = (&input.proxy_a, &input.proxy_b);
+    let l1 = |v: Vec2| v.x.abs() + v.y.abs();
     let d0 = sb.c0 - sa.c0;
     let dv = (sb.c1 - sb.c0) - (sa.c1 - sa.c0);
-    let dv2 = dv.dot(dv);
-    let t = if dv2 > 0.0 {
-        (-d0.dot(dv) / dv2).clamp(0.0, input.max_fraction)
-    } else {
-        0.0
-    };
-    let gap = (d0 + t * dv).length();
     let slop = input.config.linear_slop;
-    let target = input
+    let tolerance = separation_tolerance(slop);
+    let total_radius = pa.radius + pb.radius;
+    let target_surface = input
         .config
         .target_separation
         .unwrap_or(target_separation(slop));
-    let reach = reach_a + reach_b + input.proxy_a.radius + input.proxy_b.radius;
-    let margin = 1.0e-5 * (d0.length() + dv.length() + reach);
-    gap - reach > target + separation_tolerance(slop) + margin
+    let target = (total_radius + target_surface).max(2.0 * tolerance);
+    let range = reach + target + tolerance + 1.0e-5 * (l1(d0) + l1(dv) + reach);
+    let range2 = range * range;
+    let e = d0.dot(dv);
+    let dv2 = dv.dot(dv);
+    let t_max = input.max_fraction;
+    if e >= 0.0 {
+        d0.dot(d0) > range2
+    } else if -e >= t_max * dv2 {
+        let d1 = d0 + t_max * dv;
+        d1.dot(d1) > range2
+    } else {
+        let c = cross(d0, dv);
+        c * c > range2 * dv2
+    }
 }
 
 /// [`time_of_impact`] with the frames of both bodies given (see [`BodyFrame`]), searching
