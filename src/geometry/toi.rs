@@ -776,21 +776,23 @@ pub fn time_of_impact(input: &ToiInput) -> ToiOutput {
 ///
 /// `reach` bounds the distance of any core point of A from A's centre of mass plus the same
 /// for B, whatever the rotation (the exact reaches, or `extent + |local_center|` each). The
-/// centres move on straight lines, so the core distance is at least `|d(t)| - reach` with
-/// `d(t) = d0 + t dv` the vector between the centres. On `[0, t_max]`, `|d(t)|` is smallest at `t = 0`
-/// when `d0·dv >= 0`, at `t_max` when `-d0·dv >= t_max |dv|²`, and otherwise at the foot of the
-/// perpendicular, where `|d|² = cross(d0, dv)² / |dv|²`. The test `|d| > R` is made on squares,
-/// with that last one multiplied out: no square root, no division, so it costs the pairs it
-/// cannot settle next to nothing. The hit range is the search's `target + tolerance`; a
-/// relative margin of about a hundred `f32` roundings of the lengths involved (in the 1-norm,
-/// which bounds the 2-norm) keeps rounding from deciding it.
+/// centres move on straight lines, so the core distance is at least `|d(t)| - reach`, with
+/// `d(t) = d0 + t dv` the vector between the centres. On `[0, t_max]`, `|d(t)|` is smallest
+/// at `t = 0` when `d0·dv >= 0`, at `t_max` when `-d0·dv >= t_max |dv|²`, and otherwise at the
+/// foot of the perpendicular, where `|d|² = cross(d0, dv)² / |dv|²`. The pair is apart when
+/// `|d| > range = reach + target + tolerance + margin` (the search's hit range), tested on
+/// squares with the last case multiplied out: no square root, no division, so the test costs
+/// the pairs it cannot settle next to nothing. The margin, a hundred `f32` roundings of every
+/// length involved (in the 1-norm, which bounds the 2-norm), keeps rounding in `d0`, in both
+/// velocities and in the reaches from deciding it.
 #[inline]
 fn discs_apart(input: &ToiInput, reach: f32) -> bool {
     let (sa, sb) = (&input.sweep_a, &input.sweep_b);
     let (pa, pb) = (&input.proxy_a, &input.proxy_b);
     let l1 = |v: Vec2| v.x.abs() + v.y.abs();
     let d0 = sb.c0 - sa.c0;
-    let dv = (sb.c1 - sb.c0) - (sa.c1 - sa.c0);
+    let (va, vb) = (sa.c1 - sa.c0, sb.c1 - sb.c0);
+    let dv = vb - va;
     let slop = input.config.linear_slop;
     let tolerance = separation_tolerance(slop);
     let total_radius = pa.radius + pb.radius;
@@ -799,7 +801,8 @@ fn discs_apart(input: &ToiInput, reach: f32) -> bool {
         .target_separation
         .unwrap_or(target_separation(slop));
     let target = (total_radius + target_surface).max(2.0 * tolerance);
-    let range = reach + target + tolerance + 1.0e-5 * (l1(d0) + l1(dv) + reach);
+    let margin = 1.0e-5 * (l1(d0) + l1(va) + l1(vb) + reach);
+    let range = reach + target + tolerance + margin;
     let range2 = range * range;
     let e = d0.dot(dv);
     let dv2 = dv.dot(dv);
@@ -1021,5 +1024,41 @@ fn search(input: &ToiInput, frame_a: BodyFrame, frame_b: BodyFrame, start: f32) 
             t_end = unproven_end.max(reached);
         }
         t1 = reached;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A disc of radius 0.5 sweeping past another at rest, their centres `offset` apart at the
+    /// closest: the disc test settles the pair only when that is beyond the hit range, and then
+    /// agrees with the full search.
+    #[test]
+    fn disc_test_settles_only_pairs_beyond_hit_range() {
+        let disc = ShapeProxy::new(&[Vec2::ZERO], 0.5).unwrap();
+        let still = Sweep::new(Vec2::ZERO, Vec2::ZERO, 0.0, Vec2::ZERO, 0.0);
+        let query = |offset: f32| {
+            let moving = Sweep::new(
+                Vec2::ZERO,
+                Vec2::new(-3.0, offset),
+                0.0,
+                Vec2::new(3.0, offset),
+                0.0,
+            );
+            ToiInput::new(disc, still, disc, moving)
+        };
+        let frame = |s: &Sweep| BodyFrame::new(s, &disc);
+
+        let far = query(1.5);
+        let out = time_of_impact(&far);
+        assert_eq!((out.state, out.iterations), (ToiState::Separated, 0));
+        let full = time_of_impact_framed(&far, frame(&far.sweep_a), frame(&far.sweep_b), 0.0);
+        assert_eq!((full.state, full.fraction), (out.state, out.fraction));
+
+        // Surfaces 4 mm apart at the closest: inside the hit band `slop ± slop/4`.
+        let near = time_of_impact(&query(1.004));
+        assert_eq!(near.state, ToiState::Hit);
+        assert!(near.iterations > 0);
     }
 }
