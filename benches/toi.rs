@@ -1,10 +1,10 @@
-//! Time of impact: ours against Box2D v3 (through `boxdd`) and parry2d, on the shared oracle
-//! cases (`tests/data/toi-cases.jsonl`, format and scoring rules in
-//! `shared/toi-cases/README.md`).
+//! Time of impact: ours against Box2D v3 (through `boxdd`) and parry2d's two casts, on the
+//! shared oracle cases (`tests/data/toi-cases.jsonl`, format and scoring rules in
+//! `shared/toi-cases/README.md`) plus a generated family of pairs that never come close.
 //!
 //! # What runs
 //!
-//! Every case goes through three implementations, built from the same JSON numbers before any
+//! Every case goes through four implementations, built from the same JSON numbers before any
 //! timing:
 //!
 //! - `ours`: [`bevy_ccd::geometry::time_of_impact`], the *angle* model (constant angular
@@ -13,8 +13,10 @@
 //!   its input validation and foundation lease are part of the call). `b2Sweep` holds the
 //!   rotations at both ends of the step and blends them by nlerp: the *nlerp* model. Cases
 //!   that turn by pi or more have no nlerp reference and score *unsupported*;
-//! - `parry`: parry2d's `cast_shapes_nonlinear` with a `NonlinearRigidMotion` per body
-//!   (linear velocity `c1 - c0`, angular velocity `a1 - a0` over a unit time), which is the
+//! - `parry_sweep`: parry2d's `sweep_time_of_impact`, its port of `b2TimeOfImpact` (nlerp
+//!   model, `ToiProxy` point clouds, slop 0.005 m);
+//! - `parry_nonlinear`: parry2d's `cast_shapes_nonlinear` with a `NonlinearRigidMotion` per
+//!   body (linear velocity `c1 - c0`, angular velocity `a1 - a0` over a unit time), which is the
 //!   *angle* model, with `stop_at_penetration = true` (an overlap at the start ends the cast,
 //!   as it does for the others). Shapes: `Ball` (one point), `Capsule` / `Segment` (two),
 //!   `ConvexPolygon`, or `RoundShape<ConvexPolygon>` when rounded.
@@ -23,26 +25,24 @@
 //! ([`oracle::score_model`]). A peer's odd output (an error, a failed status, a fraction that
 //! is not a number in `[0, 1]`, a panic) scores *failed*; it never stops the run.
 //!
+//! The families `separated` and `near_miss` are generated ([`oracle::separated_cases`]): pairs
+//! whose swept boxes overlap but that stay apart, as most candidate pairs of a scene do; in
+//! `near_miss` the discs that bound the two shapes do meet, so only the shapes can tell.
+//!
 //! # Timing
 //!
-//! One criterion group per family (`toi-<family>`), with the functions `ours`, `box2d` and
-//! `parry`; one iteration runs every case of the family through that implementation. The
-//! table's *ns/call* is criterion's median iteration time divided by the number of cases
-//! timed ("–" where criterion did not measure in this run: `cargo test --benches`, a filter
-//! that skipped the group, `--profile-time`).
+//! **Per case** (the table's ratios): each case is timed on its own, hot: a batch of repeated
+//! calls per implementation, the implementations interleaved in an order that rotates every
+//! round so they share whatever load the machine has; a case's time per call is the median
+//! over the rounds. The ratio *ours / peer* of a family is the median over cases of the
+//! per-case ratio, counting only the cases that peer answers correctly (and ours too, which
+//! is every case). The plain per-family medians are the median of the per-case times over
+//! all of the family's cases.
 //!
-//! Criterion measures the three one after the other, seconds apart, so on a busy machine
-//! their ratio follows the load of the moment. The table therefore also gives the median
-//! over *interleaved* rounds (one pass of each implementation per round, the order rotating),
-//! in which the three share whatever load there is; see [`interleaved`].
-//!
-//! # The table
-//!
-//! Printed to stdout after the benchmarks (outside any timing) and written to
-//! `<target dir>/toi-bench-table.md`. An implementation gets a family **right** when it has
-//! no miss, no failure and no unsupported case there (late, early and ghost answers are
-//! counted but allowed). The ratio is ours over the fastest peer that got the family right;
-//! the target is at most 0.75.
+//! **Per family** (criterion): one criterion group per family (`toi-<family>`), one function
+//! per implementation, one iteration running every case of the family; the detail tables give
+//! its median divided by the cases ("–" where criterion did not measure in this run:
+//! `cargo test --benches`, a filter that skipped the group, `--profile-time`).
 //!
 //! ```text
 //! CARGO_TARGET_DIR=target-bench cargo bench --bench toi              # full run
@@ -50,8 +50,14 @@
 //! CARGO_TARGET_DIR=target-bench cargo test --benches                 # smoke test
 //! ```
 //!
+//! The table is printed after the benchmarks (outside any timing) and written to
+//! `<target dir>/toi-bench-table.md`.
+//!
 //! Environment: `TOI_BENCH_FAMILIES=spinning,bullet` runs only those families;
-//! `TOI_BENCH_VERBOSE=1` lists every answer that is not correct under its family's table.
+//! `TOI_BENCH_VERBOSE=1` lists every answer that is not correct; `TOI_BENCH_PROFILE=n` skips
+//! all timing and calls every implementation `n` more times per case, for an instruction
+//! count per call under `valgrind --tool=callgrind` (each implementation is called through
+//! its own never-inlined `call_*` function).
 
 #[path = "../tests/support/oracle.rs"]
 mod oracle;
@@ -65,23 +71,37 @@ use std::time::{Duration, Instant, SystemTime};
 
 use bevy_ccd::geometry::{ToiInput, ToiOutput, time_of_impact};
 use criterion::{Criterion, Throughput};
-use oracle::{Case, Model, Reported, Verdict, load_cases, score_model};
+use oracle::{
+    Case, Model, NEAR_MISS_FAMILY, Reported, SEPARATED_FAMILY, Verdict, load_cases, score_model,
+    separated_cases,
+};
 use parry2d::math::{Pose, Vector};
+use parry2d::query::sweep_toi::{
+    Sweep as ParrySweep, SweepToiOutput, SweepToiStatus, ToiProxy, sweep_time_of_impact,
+};
 use parry2d::query::{NonlinearRigidMotion, ShapeCastStatus, cast_shapes_nonlinear};
 use parry2d::shape::{Ball, Capsule, ConvexPolygon, RoundShape, Segment, Shape};
 
-/// The families of the oracle set, in the README's order.
-const FAMILIES: [&str; 6] = [
+/// The families: the README's, in its order, then the generated one.
+const FAMILIES: [&str; 8] = [
     "random",
     "bullet",
     "spinning",
     "catto_worst_case",
     "grazing",
     "edge",
+    SEPARATED_FAMILY,
+    NEAR_MISS_FAMILY,
 ];
 
-/// The speed target: ours over the fastest right peer.
+/// Generated cases of each of the `separated` and `near_miss` families.
+const SEPARATED_CASES: usize = 200;
+
+/// The speed target: ours over each target peer, by the per-case rule.
 const RATIO_TARGET: f64 = 0.75;
+
+/// The linear slop of the cases (m), for the peers that take it as an argument.
+const SLOP: f32 = oracle::SLOP as f32;
 
 /// Verdict columns of the table, in order.
 const VERDICTS: [Verdict; 6] = [
@@ -98,27 +118,41 @@ const VERDICTS: [Verdict; 6] = [
 enum Engine {
     Ours,
     Box2d,
-    Parry,
+    ParrySweep,
+    ParryNonlinear,
 }
 
 impl Engine {
-    const ALL: [Engine; 3] = [Engine::Ours, Engine::Box2d, Engine::Parry];
+    const ALL: [Engine; 4] = [
+        Engine::Ours,
+        Engine::Box2d,
+        Engine::ParrySweep,
+        Engine::ParryNonlinear,
+    ];
+    /// The peers, in the table's order.
+    const PEERS: [Engine; 3] = [Engine::ParrySweep, Engine::Box2d, Engine::ParryNonlinear];
 
     /// The criterion function name and table label.
     fn name(self) -> &'static str {
         match self {
             Engine::Ours => "ours",
             Engine::Box2d => "box2d",
-            Engine::Parry => "parry",
+            Engine::ParrySweep => "parry_sweep",
+            Engine::ParryNonlinear => "parry_nonlinear",
         }
     }
 
     /// The rotation model the implementation follows, hence the reference it is scored with.
     fn model(self) -> Model {
         match self {
-            Engine::Ours | Engine::Parry => Model::Angle,
-            Engine::Box2d => Model::Nlerp,
+            Engine::Ours | Engine::ParryNonlinear => Model::Angle,
+            Engine::Box2d | Engine::ParrySweep => Model::Nlerp,
         }
+    }
+
+    /// Whether the speed target applies against this peer (the Box2D ports).
+    fn is_target(self) -> bool {
+        matches!(self, Engine::Box2d | Engine::ParrySweep)
     }
 }
 
@@ -179,7 +213,7 @@ fn parry_motion(s: &oracle::SweepJson, offset: Vector) -> NonlinearRigidMotion {
     NonlinearRigidMotion::new(start, local_center, parry_vector(s.c1) - c0, s.a1 - s.a0)
 }
 
-fn parry_case(case: &Case) -> Result<ParryCase, String> {
+fn parry_nonlinear_case(case: &Case) -> Result<ParryCase, String> {
     let (shape_a, offset_a) = parry_shape(&case.a)?;
     let (shape_b, offset_b) = parry_shape(&case.b)?;
     Ok(ParryCase {
@@ -188,6 +222,38 @@ fn parry_case(case: &Case) -> Result<ParryCase, String> {
         shape_b,
         motion_b: parry_motion(&case.sweep_b, offset_b),
     })
+}
+
+/// A case as parry's `sweep_time_of_impact` takes it: point clouds with radii, and sweeps.
+struct ParrySweepCase {
+    points_a: Vec<Vector>,
+    radius_a: f32,
+    sweep_a: ParrySweep,
+    points_b: Vec<Vector>,
+    radius_b: f32,
+    sweep_b: ParrySweep,
+}
+
+fn parry_sweep(s: &oracle::SweepJson) -> ParrySweep {
+    ParrySweep {
+        local_center: parry_vector(s.local_center),
+        c1: parry_vector(s.c0),
+        c2: parry_vector(s.c1),
+        q1: Pose::rotation(s.a0).rotation,
+        q2: Pose::rotation(s.a1).rotation,
+    }
+}
+
+fn parry_sweep_case(case: &Case) -> ParrySweepCase {
+    let points = |s: &oracle::ShapeJson| s.points.iter().map(|&p| parry_vector(p)).collect();
+    ParrySweepCase {
+        points_a: points(&case.a),
+        radius_a: case.a.radius,
+        sweep_a: parry_sweep(&case.sweep_a),
+        points_b: points(&case.b),
+        radius_b: case.b.radius,
+        sweep_b: parry_sweep(&case.sweep_b),
+    }
 }
 
 fn box2d_sweep(s: &oracle::SweepJson) -> boxdd::Result<boxdd::Sweep> {
@@ -227,7 +293,15 @@ fn call_box2d(input: &boxdd::ToiInput) -> boxdd::Result<boxdd::ToiOutput> {
 }
 
 #[inline(never)]
-fn call_parry(
+fn call_parry_sweep(c: &ParrySweepCase) -> SweepToiOutput {
+    // Borrowing proxies cost nothing to build; Rapier builds them per pair the same way.
+    let a = ToiProxy::from_points(&c.points_a, c.radius_a);
+    let b = ToiProxy::from_points(&c.points_b, c.radius_b);
+    sweep_time_of_impact(&a, &c.sweep_a, &b, &c.sweep_b, 1.0, SLOP)
+}
+
+#[inline(never)]
+fn call_parry_nonlinear(
     c: &ParryCase,
 ) -> Result<Option<parry2d::query::ShapeCastHit>, parry2d::query::Unsupported> {
     cast_shapes_nonlinear(
@@ -291,7 +365,17 @@ fn interpret_box2d(out: &boxdd::Result<boxdd::ToiOutput>) -> Answer {
     }
 }
 
-fn interpret_parry(
+fn interpret_parry_sweep(out: &SweepToiOutput) -> Answer {
+    let raw = format!("{:?} t={}", out.status, out.fraction);
+    match out.status {
+        SweepToiStatus::Hit => answer(Reported::Hit, out.fraction, raw),
+        SweepToiStatus::Separated => answer(Reported::Separated, out.fraction, raw),
+        SweepToiStatus::Overlapped => answer(Reported::Overlapped, out.fraction, raw),
+        SweepToiStatus::Failed => answer(Reported::Failed, 0.0, raw),
+    }
+}
+
+fn interpret_parry_nonlinear(
     out: &Result<Option<parry2d::query::ShapeCastHit>, parry2d::query::Unsupported>,
 ) -> Answer {
     match out {
@@ -345,37 +429,38 @@ struct Tally {
     wrong: Vec<String>,
     /// Cases timed.
     timed: usize,
-    /// Median time per call (ns) by criterion, when it measured in this run.
+    /// Criterion's median time per call (ns), when it measured in this run.
     criterion_ns: Option<f64>,
-    /// Median time per call (ns) from the interleaved rounds.
-    interleaved_ns: Option<f64>,
 }
 
 impl Tally {
-    fn add(&mut self, case: &Case, model: Model, answer: &Answer) {
+    /// Scores an answer; returns its verdict (`None`: unsupported).
+    fn add(&mut self, case: &Case, model: Model, answer: &Answer) -> Option<Verdict> {
         self.flagged += usize::from(answer.flagged);
-        let scored = score_model(case, model, answer.state, answer.t);
-        match scored {
-            None => self.unsupported += 1,
-            Some((verdict, d)) => {
-                *self.verdicts.entry(verdict).or_default() += 1;
-                if let (Some(d), Reported::Hit) = (d, answer.state) {
-                    self.abs_d.push(d.abs());
-                }
-                if verdict != Verdict::Correct {
-                    let r = case.reference(model).expect("scored, so referenced");
-                    self.wrong.push(format!(
-                        "{} {verdict:?}: {} d(t)={} | t_touch={:?} min_dist={:.3e} d0={:.3e}",
-                        case.id,
-                        answer.raw,
-                        d.map_or_else(|| "-".into(), |d| format!("{d:.3e}")),
-                        r.t_touch,
-                        r.min_dist,
-                        r.d0,
-                    ));
-                }
+        let (verdict, d) = match score_model(case, model, answer.state, answer.t) {
+            None => {
+                self.unsupported += 1;
+                return None;
             }
+            Some(scored) => scored,
+        };
+        *self.verdicts.entry(verdict).or_default() += 1;
+        if let (Some(d), Reported::Hit) = (d, answer.state) {
+            self.abs_d.push(d.abs());
         }
+        if verdict != Verdict::Correct {
+            let r = case.reference(model).expect("scored, so referenced");
+            self.wrong.push(format!(
+                "{} {verdict:?}: {} d(t)={} | t_touch={:?} min_dist={:.3e} d0={:.3e}",
+                case.id,
+                answer.raw,
+                d.map_or_else(|| "-".into(), |d| format!("{d:.3e}")),
+                r.t_touch,
+                r.min_dist,
+                r.d0,
+            ));
+        }
+        Some(verdict)
     }
 
     /// A case the implementation could not be run on: failed, and not timed.
@@ -395,36 +480,6 @@ impl Tally {
     }
 }
 
-/// Which measurement a time per call comes from.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Clock {
-    /// Criterion's median, each implementation measured on its own.
-    Criterion,
-    /// The median over rounds that run every implementation in turn (see [`interleaved`]).
-    Interleaved,
-}
-
-impl Clock {
-    const ALL: [Clock; 2] = [Clock::Criterion, Clock::Interleaved];
-
-    fn name(self) -> &'static str {
-        match self {
-            Clock::Criterion => "criterion",
-            Clock::Interleaved => "interleaved",
-        }
-    }
-}
-
-impl Tally {
-    /// The median time per call (ns) by the given clock.
-    fn ns(&self, clock: Clock) -> Option<f64> {
-        match clock {
-            Clock::Criterion => self.criterion_ns,
-            Clock::Interleaved => self.interleaved_ns,
-        }
-    }
-}
-
 /// Our own counters, summed over a family.
 #[derive(Default)]
 struct OursStats {
@@ -434,13 +489,61 @@ struct OursStats {
     certify_evaluations: u64,
 }
 
+/// Every implementation's input for one case; `None` where the implementation could not take
+/// the case (it is then scored failed and not timed).
+struct Inputs {
+    ours: ToiInput,
+    box2d: Option<boxdd::ToiInput>,
+    parry_sweep: Option<ParrySweepCase>,
+    parry_nonlinear: Option<ParryCase>,
+}
+
+impl Inputs {
+    fn has(&self, engine: Engine) -> bool {
+        match engine {
+            Engine::Ours => true,
+            Engine::Box2d => self.box2d.is_some(),
+            Engine::ParrySweep => self.parry_sweep.is_some(),
+            Engine::ParryNonlinear => self.parry_nonlinear.is_some(),
+        }
+    }
+
+    /// One call of `engine` on this case, its result kept from the optimiser.
+    #[inline(always)]
+    fn call(&self, engine: Engine) {
+        match engine {
+            Engine::Ours => {
+                black_box(call_ours(black_box(&self.ours)));
+            }
+            Engine::Box2d => {
+                if let Some(input) = &self.box2d {
+                    // The result owns nothing; dropping it is free.
+                    let _ = black_box(call_box2d(black_box(input)));
+                }
+            }
+            Engine::ParrySweep => {
+                if let Some(c) = &self.parry_sweep {
+                    black_box(call_parry_sweep(black_box(c)));
+                }
+            }
+            Engine::ParryNonlinear => {
+                if let Some(c) = &self.parry_nonlinear {
+                    let _ = black_box(call_parry_nonlinear(black_box(c)));
+                }
+            }
+        }
+    }
+}
+
 /// One family, prepared for every implementation.
 struct Family<'a> {
     name: &'static str,
     cases: Vec<&'a Case>,
-    ours: Vec<ToiInput>,
-    box2d: Vec<boxdd::ToiInput>,
-    parry: Vec<ParryCase>,
+    inputs: Vec<Inputs>,
+    /// Per case and implementation: the verdict (`None`: unsupported or not run).
+    verdicts: Vec<BTreeMap<Engine, Option<Verdict>>>,
+    /// Per case and implementation: the time per call (ns), hot and interleaved.
+    ns: Vec<BTreeMap<Engine, f64>>,
     tallies: BTreeMap<Engine, Tally>,
     ours_stats: OursStats,
 }
@@ -451,9 +554,9 @@ impl<'a> Family<'a> {
         let cases: Vec<&Case> = all.iter().filter(|c| c.family == name).collect();
         let mut family = Family {
             name,
-            ours: Vec::with_capacity(cases.len()),
-            box2d: Vec::with_capacity(cases.len()),
-            parry: Vec::with_capacity(cases.len()),
+            inputs: Vec::with_capacity(cases.len()),
+            verdicts: Vec::with_capacity(cases.len()),
+            ns: Vec::new(),
             cases,
             tallies: Engine::ALL.iter().map(|&e| (e, Tally::default())).collect(),
             ours_stats: OursStats::default(),
@@ -461,27 +564,27 @@ impl<'a> Family<'a> {
         for i in 0..family.cases.len() {
             family.score_case(i);
         }
-        for (engine, tally) in &mut family.tallies {
-            tally.timed = match engine {
-                Engine::Ours => family.ours.len(),
-                Engine::Box2d => family.box2d.len(),
-                Engine::Parry => family.parry.len(),
-            };
+        for engine in Engine::ALL {
+            let timed = family.inputs.iter().filter(|i| i.has(engine)).count();
+            family.tally(engine).timed = timed;
         }
         family
     }
 
     fn score_case(&mut self, i: usize) {
         let case = self.cases[i];
-        let input = case.input();
-        let out = call_ours(&input);
+        let mut verdicts = BTreeMap::new();
+
+        let ours = case.input();
+        let out = call_ours(&ours);
         self.ours_stats.iterations += u64::from(out.iterations);
         self.ours_stats.max_iterations = self.ours_stats.max_iterations.max(out.iterations);
         self.ours_stats.root_iterations += u64::from(out.root_iterations);
         self.ours_stats.certify_evaluations += u64::from(out.certify_evaluations);
-        self.tally(Engine::Ours)
-            .add(case, Engine::Ours.model(), &interpret_ours(&out));
-        self.ours.push(input);
+        let v = self
+            .tally(Engine::Ours)
+            .add(case, Model::Angle, &interpret_ours(&out));
+        verdicts.insert(Engine::Ours, v);
 
         let box2d = box2d_input(case)
             .map_err(|e| e.to_string())
@@ -489,26 +592,49 @@ impl<'a> Family<'a> {
                 let answer = guarded(|| interpret_box2d(&call_box2d(&input))).ok_or("panicked")?;
                 Ok((input, answer))
             });
-        match box2d {
-            Ok((input, answer)) => {
-                self.tally(Engine::Box2d)
-                    .add(case, Engine::Box2d.model(), &answer);
-                self.box2d.push(input);
-            }
-            Err(why) => self.tally(Engine::Box2d).add_not_run(case, &why),
-        }
+        let box2d = self.record(case, Engine::Box2d, box2d, &mut verdicts);
 
-        let parry = parry_case(case).and_then(|c| {
-            let answer = guarded(|| interpret_parry(&call_parry(&c))).ok_or("panicked")?;
+        let sweep = parry_sweep_case(case);
+        let sweep = guarded(|| interpret_parry_sweep(&call_parry_sweep(&sweep)))
+            .map(|answer| (sweep, answer))
+            .ok_or_else(|| "panicked".to_string());
+        let parry_sweep = self.record(case, Engine::ParrySweep, sweep, &mut verdicts);
+
+        let nonlinear = parry_nonlinear_case(case).and_then(|c| {
+            let answer = guarded(|| interpret_parry_nonlinear(&call_parry_nonlinear(&c)))
+                .ok_or("panicked")?;
             Ok((c, answer))
         });
-        match parry {
-            Ok((c, answer)) => {
-                self.tally(Engine::Parry)
-                    .add(case, Engine::Parry.model(), &answer);
-                self.parry.push(c);
+        let parry_nonlinear = self.record(case, Engine::ParryNonlinear, nonlinear, &mut verdicts);
+
+        self.inputs.push(Inputs {
+            ours,
+            box2d,
+            parry_sweep,
+            parry_nonlinear,
+        });
+        self.verdicts.push(verdicts);
+    }
+
+    /// Scores a peer's answer (or its failure to run) and keeps its input for timing.
+    fn record<T>(
+        &mut self,
+        case: &Case,
+        engine: Engine,
+        run: Result<(T, Answer), String>,
+        verdicts: &mut BTreeMap<Engine, Option<Verdict>>,
+    ) -> Option<T> {
+        match run {
+            Ok((input, answer)) => {
+                let v = self.tally(engine).add(case, engine.model(), &answer);
+                verdicts.insert(engine, v);
+                Some(input)
             }
-            Err(why) => self.tally(Engine::Parry).add_not_run(case, &why),
+            Err(why) => {
+                self.tally(engine).add_not_run(case, &why);
+                verdicts.insert(engine, None);
+                None
+            }
         }
     }
 
@@ -516,26 +642,32 @@ impl<'a> Family<'a> {
         self.tallies.get_mut(&engine).expect("a tally per engine")
     }
 
-    /// One pass over the family's cases through `engine`, results kept from the optimiser.
+    /// One pass over the family's cases through `engine`.
     fn pass(&self, engine: Engine) {
-        match engine {
-            Engine::Ours => {
-                for input in &self.ours {
-                    black_box(call_ours(black_box(input)));
-                }
-            }
-            Engine::Box2d => {
-                for input in &self.box2d {
-                    // The result owns nothing; dropping it is free.
-                    let _ = black_box(call_box2d(black_box(input)));
-                }
-            }
-            Engine::Parry => {
-                for c in &self.parry {
-                    let _ = black_box(call_parry(black_box(c)));
-                }
-            }
+        for inputs in &self.inputs {
+            inputs.call(engine);
         }
+    }
+
+    /// The median over cases of the per-case time of `engine` (ns).
+    fn median_ns(&self, engine: Engine) -> Option<f64> {
+        let times: Vec<f64> = self
+            .ns
+            .iter()
+            .filter_map(|m| m.get(&engine).copied())
+            .collect();
+        median(&times)
+    }
+
+    /// The median over the cases both answer correctly of the per-case ratio ours / `peer`,
+    /// and the number of those cases.
+    fn ratio(&self, peer: Engine) -> (Option<f64>, usize) {
+        let correct = |i: usize, e: Engine| self.verdicts[i][&e] == Some(Verdict::Correct);
+        let ratios: Vec<f64> = (0..self.ns.len())
+            .filter(|&i| correct(i, Engine::Ours) && correct(i, peer))
+            .filter_map(|i| Some(self.ns[i].get(&Engine::Ours)? / self.ns[i].get(&peer)?))
+            .collect();
+        (median(&ratios), ratios.len())
     }
 }
 
@@ -550,6 +682,8 @@ struct RunMode {
     measuring: bool,
     /// `--list`: criterion only lists the benchmarks; no table.
     listing: bool,
+    /// `TOI_BENCH_PROFILE=n`: no timing, `n` extra calls per case and implementation.
+    profile: Option<usize>,
 }
 
 impl RunMode {
@@ -562,6 +696,9 @@ impl RunMode {
         RunMode {
             measuring: !testing && !listing && !profiling,
             listing,
+            profile: std::env::var("TOI_BENCH_PROFILE")
+                .ok()
+                .and_then(|n| n.parse().ok()),
         }
     }
 }
@@ -604,47 +741,54 @@ fn criterion_median(group: &str, function: &str, since: SystemTime) -> Option<f6
         .filter(|ns| ns.is_finite() && *ns > 0.0)
 }
 
-/// Times the implementations against each other: rounds of one pass of each, in an order
-/// that rotates every round, after one warm-up round, until `budget` has passed and at least
-/// `min_rounds` were run. Machine load then falls on all of them alike, which keeps their
-/// ratios steady on a busy machine where criterion measures each one seconds apart. Returns
-/// the median time per call (ns) of each implementation that has cases to time.
-fn interleaved(family: &Family<'_>, min_rounds: usize, budget: Duration) -> BTreeMap<Engine, f64> {
-    let engines: Vec<Engine> = Engine::ALL
-        .into_iter()
-        .filter(|e| family.tallies[e].timed > 0)
-        .collect();
-    let mut times: BTreeMap<Engine, Vec<f64>> = engines.iter().map(|&e| (e, Vec::new())).collect();
-    for &engine in &engines {
-        family.pass(engine);
-    }
-    let start = Instant::now();
-    let mut round = 0;
-    while round < min_rounds || start.elapsed() < budget {
-        for k in 0..engines.len() {
-            let engine = engines[(round + k) % engines.len()];
-            let pass = Instant::now();
-            family.pass(engine);
-            let ns = pass.elapsed().as_secs_f64() * 1e9;
-            times.entry(engine).or_default().push(ns);
-        }
-        round += 1;
-    }
-    times
-        .into_iter()
-        .filter_map(|(engine, t)| {
-            let per_call = median(&t)? / family.tallies[&engine].timed as f64;
-            Some((engine, per_call))
+/// How long one timed batch of calls should take: long enough that reading the clock is a
+/// small part of it, short enough that a batch rarely straddles a preemption.
+const BATCH: Duration = Duration::from_micros(4);
+
+/// Times every case on its own (see the module documentation): `rounds` rounds of one batch
+/// per implementation, the order rotating, after a warm-up batch that also sizes the batches.
+fn time_cases(family: &mut Family<'_>, rounds: usize) {
+    family.ns = family
+        .inputs
+        .iter()
+        .map(|inputs| {
+            let engines: Vec<Engine> = Engine::ALL.into_iter().filter(|&e| inputs.has(e)).collect();
+            let batch = |engine: Engine, reps: u32| {
+                let start = Instant::now();
+                for _ in 0..reps {
+                    inputs.call(engine);
+                }
+                start.elapsed().as_secs_f64() * 1e9 / f64::from(reps)
+            };
+            let reps: Vec<u32> = engines
+                .iter()
+                .map(|&e| {
+                    let ns = batch(e, 4).max(1.0);
+                    ((BATCH.as_secs_f64() * 1e9 / ns).ceil() as u32).clamp(1, 256)
+                })
+                .collect();
+            let mut times: Vec<Vec<f64>> = vec![Vec::with_capacity(rounds); engines.len()];
+            for round in 0..rounds {
+                for k in 0..engines.len() {
+                    let j = (round + k) % engines.len();
+                    times[j].push(batch(engines[j], reps[j]));
+                }
+            }
+            engines
+                .iter()
+                .zip(&times)
+                .filter_map(|(&e, t)| Some((e, median(t)?)))
+                .collect()
         })
-        .collect()
+        .collect();
 }
 
 fn group_name(family: &str) -> String {
     format!("toi-{family}")
 }
 
-/// Benchmarks one family with criterion (one function per implementation), then fills in the
-/// time per call of each.
+/// Benchmarks one family with criterion (one function per implementation), then times every
+/// case on its own.
 fn bench_family(c: &mut Criterion, family: &mut Family<'_>, mode: &RunMode, since: SystemTime) {
     let group = group_name(family.name);
     {
@@ -667,14 +811,7 @@ fn bench_family(c: &mut Criterion, family: &mut Family<'_>, mode: &RunMode, sinc
             family.tally(engine).criterion_ns = ns.map(|ns| ns / timed as f64);
         }
     }
-    let (min_rounds, budget) = if mode.measuring {
-        (31, Duration::from_secs(2))
-    } else {
-        (3, Duration::ZERO)
-    };
-    for (engine, ns) in interleaved(family, min_rounds, budget) {
-        family.tally(engine).interleaved_ns = Some(ns);
-    }
+    time_cases(family, if mode.measuring { 31 } else { 3 });
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -695,50 +832,58 @@ fn fmt_len(m: Option<f64>) -> String {
     m.map_or_else(|| "–".into(), |m| format!("{m:.1e}"))
 }
 
-/// A peer and its time per call (ns).
-type Peer = Option<(Engine, f64)>;
-
-/// The fastest peer that got the family right, and the fastest peer at all, by `clock`.
-fn fastest_peers(family: &Family<'_>, clock: Clock) -> (Peer, Peer) {
-    let mut right = None;
-    let mut any = None;
-    for engine in [Engine::Box2d, Engine::Parry] {
-        let tally = &family.tallies[&engine];
-        let Some(ns) = tally.ns(clock) else {
-            continue;
-        };
-        let better = |best: Peer| best.is_none_or(|(_, b)| ns < b);
-        if better(any) {
-            any = Some((engine, ns));
-        }
-        if tally.right() && better(right) {
-            right = Some((engine, ns));
-        }
-    }
-    (right, any)
+/// A ratio cell: the median per-case ratio and, in parentheses, the cases it is taken over.
+fn fmt_ratio((r, n): (Option<f64>, usize)) -> String {
+    r.map_or_else(|| format!("– ({n})"), |r| format!("{r:.2} ({n})"))
 }
 
-/// Ours over a peer's time per call, by `clock`.
-fn ratio(family: &Family<'_>, peer: Peer, clock: Clock) -> Option<(f64, Engine)> {
-    let ours = family.tallies[&Engine::Ours].ns(clock)?;
-    peer.map(|(engine, ns)| (ours / ns, engine))
-}
-
-/// Whether a ratio to the fastest right peer meets [`RATIO_TARGET`], and by how much not.
-fn fmt_target(r: Option<(f64, Engine)>) -> String {
-    match r {
+/// Whether ours is within [`RATIO_TARGET`] of every target peer on the family, and if not,
+/// how much time it must shed against the worst one.
+fn fmt_target(family: &Family<'_>) -> String {
+    let worst = Engine::PEERS
+        .into_iter()
+        .filter(|e| e.is_target())
+        .filter_map(|e| Some((family.ratio(e).0?, e)))
+        .max_by(|a, b| a.0.total_cmp(&b.0));
+    match worst {
+        None => "no timed peer".into(),
         Some((r, _)) if r <= RATIO_TARGET => "met".into(),
-        Some((r, _)) => format!(
-            "missed by {:.2} (needs {:.0}% less time)",
-            r - RATIO_TARGET,
+        Some((r, e)) => format!(
+            "missed vs {} (needs {:.0}% less time)",
+            e.name(),
             (1.0 - RATIO_TARGET / r) * 100.0
         ),
-        None => "no right peer".into(),
     }
 }
 
-fn fmt_ratio(r: Option<(f64, Engine)>) -> String {
-    r.map_or_else(|| "none".into(), |(r, e)| format!("{r:.2} ({})", e.name()))
+fn summary_table(out: &mut String, families: &[Family<'_>]) {
+    let _ = writeln!(
+        out,
+        "| family | cases | ours | box2d | parry_sweep | parry_nonlinear \
+         | ours / parry_sweep | ours / box2d | ours / parry_nonlinear \
+         | target <= {RATIO_TARGET} |"
+    );
+    let _ = writeln!(out, "|---|--:|--:|--:|--:|--:|--:|--:|--:|:-:|");
+    for family in families {
+        let ns: Vec<String> = Engine::ALL
+            .iter()
+            .map(|&e| fmt_ns(family.median_ns(e)))
+            .collect();
+        let ratios: Vec<String> = Engine::PEERS
+            .iter()
+            .map(|&e| fmt_ratio(family.ratio(e)))
+            .collect();
+        let _ = writeln!(
+            out,
+            "| {} | {} | {} | {} | {} |",
+            family.name,
+            family.cases.len(),
+            ns.join(" | "),
+            ratios.join(" | "),
+            fmt_target(family),
+        );
+    }
+    let _ = writeln!(out);
 }
 
 fn family_table(out: &mut String, family: &Family<'_>) {
@@ -747,8 +892,8 @@ fn family_table(out: &mut String, family: &Family<'_>) {
     let _ = writeln!(
         out,
         "| impl | model | correct | miss | late | early | ghost | failed | unsupported \
-         | median \\|d\\| at hits (m) | max \\|d\\| (m) | ns/call criterion \
-         | ns/call interleaved | right |"
+         | median \\|d\\| at hits (m) | max \\|d\\| (m) | ns/call per case (median) \
+         | ns/call criterion (pass / cases) | right |"
     );
     let _ = writeln!(
         out,
@@ -771,34 +916,11 @@ fn family_table(out: &mut String, family: &Family<'_>) {
             t.unsupported,
             fmt_len(median(&t.abs_d)),
             fmt_len(max_d),
+            fmt_ns(family.median_ns(engine)),
             fmt_ns(t.criterion_ns),
-            fmt_ns(t.interleaved_ns),
             if t.right() { "yes" } else { "no" },
         );
     }
-    let notes: Vec<String> = Engine::ALL
-        .iter()
-        .filter(|&&e| family.tallies[&e].not_run > 0)
-        .map(|&e| {
-            format!(
-                "{} could not run {} case(s) (scored failed, not timed)",
-                e.name(),
-                family.tallies[&e].not_run
-            )
-        })
-        .chain(
-            Engine::ALL
-                .iter()
-                .filter(|&&e| family.tallies[&e].flagged > 0)
-                .map(|&e| {
-                    format!(
-                        "{} flagged {} answer(s) as failed but gave a time (scored as hits)",
-                        e.name(),
-                        family.tallies[&e].flagged
-                    )
-                }),
-        )
-        .collect();
     let s = &family.ours_stats;
     let per = |x: u64| x as f64 / n.max(1) as f64;
     let _ = writeln!(
@@ -810,21 +932,24 @@ fn family_table(out: &mut String, family: &Family<'_>) {
         per(s.root_iterations),
         per(s.certify_evaluations),
     );
-    for clock in Clock::ALL {
-        if family.tallies[&Engine::Ours].ns(clock).is_none() {
-            continue;
+    for engine in Engine::ALL {
+        let t = &family.tallies[&engine];
+        if t.not_run > 0 {
+            let _ = writeln!(
+                out,
+                "{} could not run {} case(s) (scored failed, not timed).",
+                engine.name(),
+                t.not_run
+            );
         }
-        let (right, any) = fastest_peers(family, clock);
-        let _ = writeln!(
-            out,
-            "{}: ours / fastest right peer {}; ours / fastest peer {}.",
-            clock.name(),
-            fmt_ratio(ratio(family, right, clock)),
-            fmt_ratio(ratio(family, any, clock)),
-        );
-    }
-    for note in notes {
-        let _ = writeln!(out, "{note}.");
+        if t.flagged > 0 {
+            let _ = writeln!(
+                out,
+                "{} flagged {} answer(s) as failed but gave a time (scored as hits).",
+                engine.name(),
+                t.flagged
+            );
+        }
     }
     if std::env::var_os("TOI_BENCH_VERBOSE").is_some() {
         for engine in Engine::ALL {
@@ -832,46 +957,6 @@ fn family_table(out: &mut String, family: &Family<'_>) {
                 let _ = writeln!(out, "    {} {line}", engine.name());
             }
         }
-    }
-    let _ = writeln!(out);
-}
-
-fn summary_table(out: &mut String, families: &[Family<'_>]) {
-    let _ = writeln!(
-        out,
-        "| family | cases | ours ns/call | box2d ns/call | parry ns/call \
-         | right (ours/box2d/parry) | ours / fastest right peer | ours / fastest peer \
-         | target <= {RATIO_TARGET} |"
-    );
-    let _ = writeln!(out, "|---|--:|--:|--:|--:|:-:|--:|--:|:-:|");
-    for family in families {
-        // "criterion (interleaved)" in every timed cell.
-        let both = |f: &dyn Fn(Clock) -> String| {
-            format!("{} ({})", f(Clock::Criterion), f(Clock::Interleaved))
-        };
-        let ns = |e: Engine| both(&|c| fmt_ns(family.tallies[&e].ns(c)));
-        let right: Vec<&str> = Engine::ALL
-            .iter()
-            .map(|e| if family.tallies[e].right() { "y" } else { "n" })
-            .collect();
-        // A clock that did not measure ours in this run leaves its cells empty.
-        let measured = |c: Clock| family.tallies[&Engine::Ours].ns(c).is_some();
-        let or_dash = |c: Clock, cell: String| if measured(c) { cell } else { "–".into() };
-        let to_right = |c: Clock| ratio(family, fastest_peers(family, c).0, c);
-        let to_any = |c: Clock| ratio(family, fastest_peers(family, c).1, c);
-        let _ = writeln!(
-            out,
-            "| {} | {} | {} | {} | {} | {} | {} | {} | {} |",
-            family.name,
-            family.cases.len(),
-            ns(Engine::Ours),
-            ns(Engine::Box2d),
-            ns(Engine::Parry),
-            right.join("/"),
-            both(&|c| or_dash(c, fmt_ratio(to_right(c)))),
-            both(&|c| or_dash(c, fmt_ratio(to_any(c)))),
-            both(&|c| or_dash(c, fmt_target(to_right(c)))),
-        );
     }
     let _ = writeln!(out);
 }
@@ -884,21 +969,13 @@ fn report(families: &[Family<'_>], mode: &RunMode) -> String {
     );
     let _ = writeln!(
         out,
-        "ns/call: the median time to run all of a family's cases, divided by the cases timed, \
-         by criterion (each implementation measured on its own{}) and, in parentheses, over \
-         interleaved rounds of one pass of each implementation ({} per family). \
-         Right: no miss, no failure, no unsupported case. Each result is scored against the \
-         reference of the model it follows (ours, parry: angle; box2d: nlerp).\n",
-        if mode.measuring {
-            ""
-        } else {
-            "; not measured in this mode"
-        },
-        if mode.measuring {
-            "at least 2 s and 31 rounds"
-        } else {
-            "3 rounds"
-        },
+        "Per family: the median over cases of the per-case time per call (ns; each case timed \
+         hot, the implementations interleaved, {} rounds), and the median over cases of the \
+         per-case ratio ours / peer over the cases that peer answers correctly (their number \
+         in parentheses). Each result is scored against the reference of the model it follows \
+         (ours, parry_nonlinear: angle; box2d, parry_sweep: nlerp). Target: at most \
+         {RATIO_TARGET} against box2d and parry_sweep.\n",
+        if mode.measuring { 31 } else { 3 },
     );
     summary_table(&mut out, families);
     for family in families {
@@ -947,11 +1024,17 @@ fn main() {
     if let Err(e) = boxdd::Foundation::initialize_default() {
         eprintln!("warning: Box2D foundation not initialised ({e}); box2d results will fail");
     }
-    let cases = load_cases();
+    let selected = selected_families();
+    let mut cases = load_cases();
+    if selected.contains(&SEPARATED_FAMILY) {
+        cases.extend(separated_cases(SEPARATED_CASES, false));
+    }
+    if selected.contains(&NEAR_MISS_FAMILY) {
+        cases.extend(separated_cases(SEPARATED_CASES, true));
+    }
     // Peers' panics are caught and scored as failures; keep their messages off the output.
     let hook = std::panic::take_hook();
     std::panic::set_hook(Box::new(|_| {}));
-    let selected = selected_families();
     let mut families: Vec<Family<'_>> = selected
         .iter()
         .map(|&f| Family::prepare(f, &cases))
@@ -963,6 +1046,22 @@ fn main() {
             "warning: {} case(s) belong to no known family",
             cases.len() - listed
         );
+    }
+
+    if let Some(n) = mode.profile {
+        for family in &families {
+            for _ in 0..n {
+                for engine in Engine::ALL {
+                    family.pass(engine);
+                }
+            }
+            let calls: Vec<String> = Engine::ALL
+                .iter()
+                .map(|&e| format!("{} {}", e.name(), family.tallies[&e].timed * (n + 1)))
+                .collect();
+            println!("{}: calls {}", family.name, calls.join(", "));
+        }
+        return;
     }
 
     let since = SystemTime::now();

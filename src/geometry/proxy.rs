@@ -18,6 +18,9 @@ pub struct ShapeProxy {
     count: u8,
     /// The rounding radius around the core (m).
     pub radius: f32,
+    /// The largest distance of a core point from the local origin (m), kept so that a query
+    /// can bound the shape's reach without a pass over its points and a square root.
+    extent: f32,
 }
 
 impl ShapeProxy {
@@ -49,7 +52,18 @@ impl ShapeProxy {
             points: p,
             count: points.len() as u8,
             radius,
+            extent: points
+                .iter()
+                .map(|q| q.length_squared())
+                .fold(0.0, f32::max)
+                .sqrt(),
         }
+    }
+
+    /// The largest distance of a core point from the local origin (m), radius not included.
+    #[inline]
+    pub fn extent(&self) -> f32 {
+        self.extent
     }
 
     /// The core points.
@@ -68,6 +82,20 @@ impl ShapeProxy {
     #[inline]
     pub fn point(&self, index: usize) -> Vec2 {
         self.points[index]
+    }
+
+    /// True when the radius and every coordinate of the core are at most `bound` in magnitude
+    /// (false for NaN).
+    ///
+    /// The slots past `count` hold zeros (every constructor fills them so), so all slots are
+    /// tested: no branch on the count, and a fixed-length loop the compiler vectorises.
+    #[inline]
+    pub(crate) fn within(&self, bound: f32) -> bool {
+        let mut all = self.radius <= bound;
+        for p in &self.points {
+            all &= (p.x.abs() <= bound) & (p.y.abs() <= bound);
+        }
+        all
     }
 
     /// The index of the core point farthest along `direction` (the first one on ties, so the

@@ -57,7 +57,7 @@ use super::constants::{
     ROOT_MAX_ITERATIONS, TOI_MAX_ITERATIONS, separation_tolerance, target_separation,
 };
 use super::gjk::{DistanceInput, SimplexCache, shape_distance};
-use super::math::{Pose, Rot, right_perp};
+use super::math::{Pose, Rot, cross, right_perp};
 use super::proxy::ShapeProxy;
 use super::sweep::Sweep;
 
@@ -203,7 +203,8 @@ fn reduced_angle(a0: f32) -> f32 {
 /// start of its sweep (a sine and cosine) and its reach. A caller that runs many queries of
 /// the same sweep (a body against each of its candidate targets, or a static target against
 /// every body) computes it once and passes it to [`time_of_impact_framed`]; the answer is
-/// bit-identical to [`time_of_impact`]'s.
+/// bit-identical to [`time_of_impact`]'s, except where [`time_of_impact`] proves a pair apart
+/// by bounding discs alone (then both say `Separated`, with different counters).
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct BodyFrame {
     q0: Rot,
@@ -663,33 +664,30 @@ fn certify(
 #[inline]
 fn all_in_bounds(sweep: &Sweep, proxy: &ShapeProxy) -> bool {
     let m = MAX_WORLD_COORDINATE;
-    let ok = |v: Vec2| v.x.abs() <= m && v.y.abs() <= m;
-    let mut all = ok(sweep.c0) & ok(sweep.c1) & ok(sweep.local_center);
-    all &= sweep.a0.abs() <= m && sweep.a1.abs() <= m && proxy.radius <= m;
-    for &p in proxy.points() {
-        all &= ok(p);
-    }
-    all
+    let ok = |v: Vec2| (v.x.abs() <= m) & (v.y.abs() <= m);
+    ok(sweep.c0)
+        & ok(sweep.c1)
+        & ok(sweep.local_center)
+        & (sweep.a0.abs() <= m)
+        & (sweep.a1.abs() <= m)
+        & proxy.within(m)
 }
 
 /// Checks the input: a branch-light test that valid input passes, and the detailed checks
 /// (which say what is wrong) only when it fails.
 fn validate(input: &ToiInput) -> Result<(), ToiFailure> {
     let c = &input.config;
+    let body_ok = |sweep: &Sweep, proxy: &ShapeProxy| {
+        (proxy.radius >= 0.0)
+            & (1..=MAX_POLYGON_VERTICES).contains(&proxy.count())
+            & all_in_bounds(sweep, proxy)
+    };
     let valid = c.linear_slop.is_finite()
-        && c.linear_slop > 0.0
-        && (0.0..=1.0).contains(&input.max_fraction)
-        && c.target_separation.is_none_or(f32::is_finite)
-        && [
-            (&input.sweep_a, &input.proxy_a),
-            (&input.sweep_b, &input.proxy_b),
-        ]
-        .iter()
-        .all(|(sweep, proxy)| {
-            proxy.radius >= 0.0
-                && (1..=MAX_POLYGON_VERTICES).contains(&proxy.count())
-                && all_in_bounds(sweep, proxy)
-        });
+        & (c.linear_slop > 0.0)
+        & (0.0..=1.0).contains(&input.max_fraction)
+        & c.target_separation.is_none_or(f32::is_finite)
+        & body_ok(&input.sweep_a, &input.proxy_a)
+        & body_ok(&input.sweep_b, &input.proxy_b);
     if valid { Ok(()) } else { diagnose(input) }
 }
 
@@ -747,19 +745,82 @@ fn diagnose(input: &ToiInput) -> Result<(), ToiFailure> {
 /// assert!((out.fraction * 100.0 - (5.0 - 0.105 - 0.005)).abs() < 0.002);
 /// ```
 pub fn time_of_impact(input: &ToiInput) -> ToiOutput {
+    if let Err(failure) = validate(input) {
+        return ToiOutput::failed(failure, 0.0);
+    }
     let any_rotation = input.sweep_a.a1 != input.sweep_a.a0 || input.sweep_b.a1 != input.sweep_b.a0;
-    // Only the motion bounds use the reach, always multiplied by an angular speed: without
-    // rotation it is not needed.
-    let frame = |sweep: &Sweep, proxy: &ShapeProxy| {
-        if any_rotation {
-            BodyFrame::new(sweep, proxy)
-        } else {
-            BodyFrame::with_reach(sweep, 0.0)
-        }
+    // The search uses the reach only in its motion bounds, always multiplied by an angular
+    // speed: without rotation it is not needed, and the disc test makes do with a bound from
+    // the proxy's extent (no pass over the points, no square root).
+    let (frame_a, frame_b, reach) = if any_rotation {
+        let frame_a = BodyFrame::new(&input.sweep_a, &input.proxy_a);
+        let frame_b = BodyFrame::new(&input.sweep_b, &input.proxy_b);
+        (frame_a, frame_b, frame_a.reach + frame_b.reach)
+    } else {
+        let l1 = |v: Vec2| v.x.abs() + v.y.abs();
+        let bound = |sweep: &Sweep, proxy: &ShapeProxy| proxy.extent() + l1(sweep.local_center);
+        (
+            BodyFrame::with_reach(&input.sweep_a, 0.0),
+            BodyFrame::with_reach(&input.sweep_b, 0.0),
+            bound(&input.sweep_a, &input.proxy_a) + bound(&input.sweep_b, &input.proxy_b),
+        )
     };
-    let frame_a = frame(&input.sweep_a, &input.proxy_a);
-    let frame_b = frame(&input.sweep_b, &input.proxy_b);
-    time_of_impact_framed(input, frame_a, frame_b, 0.0)
+    if discs_apart(input, reach) {
+        return ToiOutput {
+            state: ToiState::Separated,
+            fraction: input.max_fraction,
+            ..ToiOutput::failed(ToiFailure::IterationLimit, 0.0)
+        };
+    }
+    search(input, frame_a, frame_b, 0.0)
+}
+
+/// Whether discs that hold the two shapes stay out of hit range over the whole interval,
+/// which proves the pair `Separated` without GJK: the cheap end of the common case, a
+/// candidate pair of a scene that passes at a distance.
+///
+/// `reach` bounds the distance of any core point of A from A's centre of mass plus the same
+/// for B, whatever the rotation (the exact reaches, or `extent + |local_center|` each). The
+/// centres move on straight lines, so the core distance is at least `|d(t)| - reach`, with
+/// `d(t) = d0 + t dv` the vector between the centres. On `[0, t_max]`, `|d(t)|` is smallest
+/// at `t = 0` when `d0·dv >= 0`, at `t_max` when `-d0·dv >= t_max |dv|²`, and otherwise at the
+/// foot of the perpendicular, where `|d|² = cross(d0, dv)² / |dv|²`. The pair is apart when
+/// `|d| > range = reach + target + tolerance + margin` (the search's hit range), tested on
+/// squares with the last case multiplied out: no square root, no division, so the test costs
+/// the pairs it cannot settle next to nothing. The margin, a hundred `f32` roundings of every
+/// length involved (in the 1-norm, which bounds the 2-norm), keeps rounding in `d0`, in both
+/// velocities and in the reaches from deciding it.
+#[inline]
+fn discs_apart(input: &ToiInput, reach: f32) -> bool {
+    let (sa, sb) = (&input.sweep_a, &input.sweep_b);
+    let (pa, pb) = (&input.proxy_a, &input.proxy_b);
+    let l1 = |v: Vec2| v.x.abs() + v.y.abs();
+    let d0 = sb.c0 - sa.c0;
+    let (va, vb) = (sa.c1 - sa.c0, sb.c1 - sb.c0);
+    let dv = vb - va;
+    let slop = input.config.linear_slop;
+    let tolerance = separation_tolerance(slop);
+    let total_radius = pa.radius + pb.radius;
+    let target_surface = input
+        .config
+        .target_separation
+        .unwrap_or(target_separation(slop));
+    let target = (total_radius + target_surface).max(2.0 * tolerance);
+    let margin = 1.0e-5 * (l1(d0) + l1(va) + l1(vb) + reach);
+    let range = reach + target + tolerance + margin;
+    let range2 = range * range;
+    let e = d0.dot(dv);
+    let dv2 = dv.dot(dv);
+    let t_max = input.max_fraction;
+    if e >= 0.0 {
+        d0.dot(d0) > range2
+    } else if -e >= t_max * dv2 {
+        let d1 = d0 + t_max * dv;
+        d1.dot(d1) > range2
+    } else {
+        let c = cross(d0, dv);
+        c * c > range2 * dv2
+    }
 }
 
 /// [`time_of_impact`] with the frames of both bodies given (see [`BodyFrame`]), searching
@@ -777,6 +838,11 @@ pub(crate) fn time_of_impact_framed(
     if let Err(failure) = validate(input) {
         return ToiOutput::failed(failure, 0.0);
     }
+    search(input, frame_a, frame_b, start)
+}
+
+/// The bilateral advancement of [`time_of_impact_framed`] on validated input.
+fn search(input: &ToiInput, frame_a: BodyFrame, frame_b: BodyFrame, start: f32) -> ToiOutput {
     let proxy_a = &input.proxy_a;
     let proxy_b = &input.proxy_b;
     // Work relative to A's start: far from the world origin, differences of nearby large
@@ -963,5 +1029,41 @@ pub(crate) fn time_of_impact_framed(
             t_end = unproven_end.max(reached);
         }
         t1 = reached;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A disc of radius 0.5 sweeping past another at rest, their centres `offset` apart at the
+    /// closest: the disc test settles the pair only when that is beyond the hit range, and then
+    /// agrees with the full search.
+    #[test]
+    fn disc_test_settles_only_pairs_beyond_hit_range() {
+        let disc = ShapeProxy::new(&[Vec2::ZERO], 0.5).unwrap();
+        let still = Sweep::new(Vec2::ZERO, Vec2::ZERO, 0.0, Vec2::ZERO, 0.0);
+        let query = |offset: f32| {
+            let moving = Sweep::new(
+                Vec2::ZERO,
+                Vec2::new(-3.0, offset),
+                0.0,
+                Vec2::new(3.0, offset),
+                0.0,
+            );
+            ToiInput::new(disc, still, disc, moving)
+        };
+        let frame = |s: &Sweep| BodyFrame::new(s, &disc);
+
+        let far = query(1.5);
+        let out = time_of_impact(&far);
+        assert_eq!((out.state, out.iterations), (ToiState::Separated, 0));
+        let full = time_of_impact_framed(&far, frame(&far.sweep_a), frame(&far.sweep_b), 0.0);
+        assert_eq!((full.state, full.fraction), (out.state, out.fraction));
+
+        // Surfaces 4 mm apart at the closest: inside the hit band `slop ± slop/4`.
+        let near = time_of_impact(&query(1.004));
+        assert_eq!(near.state, ToiState::Hit);
+        assert!(near.iterations > 0);
     }
 }
