@@ -4,7 +4,7 @@
 //! Before the start contact was responded to at the points the response acts on (and bodies
 //! touching several targets responded to together), fast-spinning bodies touching a wall froze:
 //! 42 of the 2,000 bodies of the default arena in `SubStep` mode and 52 in `Clamp` mode (no
-//! gravity), 1,003 in `Clamp` mode with gravity.
+//! gravity, 600 steps).
 
 use bevy_ccd::geometry::LINEAR_SLOP;
 use bevy_ccd::prelude::*;

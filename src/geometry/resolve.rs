@@ -20,6 +20,7 @@
 //!    earliest hit.
 
 use glam::{DVec2, Vec2};
+use smallvec::SmallVec;
 
 use super::bvh::Bvh;
 use super::constants::{
@@ -340,22 +341,29 @@ pub struct BodyOutcome {
     pub nudged: bool,
 }
 
-/// What one pair test found. `touch` is the contact (point, normal toward the target, surface
-/// separation) when the body starts the sweep touching the target: [`solve_body`] responds to
-/// every such contact together once one of them is driven into. A hit's `separation` is the
-/// surface separation at it.
+/// A contact a pair test found: where (world), the unit normal toward the target, the surface
+/// separation, and the ends of its contact patch (world) when the test needed them.
+#[derive(Clone, Copy, Debug)]
+struct Contact {
+    point: Vec2,
+    normal: Vec2,
+    separation: f32,
+    patch: Option<(Vec2, Vec2)>,
+}
+
+/// What one pair test found. `touch` is the contact when the body starts the sweep touching
+/// the target: [`solve_body`] responds to every such contact together once one of them is
+/// driven into.
 enum PairOutcome {
     Clear {
         overlapping: bool,
-        touch: Option<(Vec2, Vec2, f32)>,
+        touch: Option<Contact>,
     },
     Hit {
         fraction: f32,
-        point: Vec2,
-        normal: Vec2,
-        separation: f32,
+        contact: Contact,
         overlapping: bool,
-        touch: Option<(Vec2, Vec2, f32)>,
+        touch: Option<Contact>,
     },
     Failed {
         fraction: f32,
@@ -590,6 +598,7 @@ fn pair_toi(
     frame: &TargetFrame,
     slop: f32,
     (t_min, t_max): (f32, f32),
+    known_patch: Option<(Vec2, Vec2)>,
 ) -> PairOutcome {
     if out_of_reach(reach, &body.proxy, sweep, t_min, t_max, target, frame, slop) {
         return PairOutcome::Clear {
@@ -612,9 +621,12 @@ fn pair_toi(
         },
         ToiState::Hit if out.fraction > 0.0 => PairOutcome::Hit {
             fraction: out.fraction,
-            point: out.point,
-            normal: out.normal,
-            separation: out.separation,
+            contact: Contact {
+                point: out.point,
+                normal: out.normal,
+                separation: out.separation,
+                patch: None,
+            },
             overlapping: false,
             touch: None,
         },
@@ -624,28 +636,49 @@ fn pair_toi(
         },
         ToiState::Hit | ToiState::Overlapped => {
             let overlapping = out.separation < 0.0;
-            let touch = Some((out.point, out.normal, out.separation));
             if out.normal == Vec2::ZERO {
                 return core_fallback(body, sweep, target, slop, input);
             }
             // The ends of the contact patch, where the response will act: deciding at the
             // same points as the response (not at the query's one closest point) means that
             // a contact found approaching is one the response changes, and a contact the
-            // response has just resolved is not found approaching again.
-            let patch = contact_patch(
-                &body.proxy,
-                sweep.pose_at(0.0),
-                target,
-                out.normal,
-                out.point,
-                slop,
-            );
-            if patch_approaching(sweep, patch, out.normal, 0.01 * separation_tolerance(slop)) {
+            // response has just resolved is not found approaching again. Not needed when the
+            // query's point moves away by more than the turn could make any other point of the
+            // body approach (`spread`): then no end approaches either.
+            let spread = sweep.angular_motion().abs() * 2.0 * (reach + body.proxy.radius);
+            let linear = sweep.linear_motion();
+            let turn_at = |p: Vec2| sweep.angular_motion() * left_perp(p - sweep.c0);
+            let apart = (linear + turn_at(out.point)).dot(out.normal) < -spread;
+            let patch = (known_patch.is_some() || !apart).then(|| {
+                known_patch.unwrap_or_else(|| {
+                    // The poses from the rotations at hand: no sine or cosine again.
+                    let q = body_frame.rotation();
+                    let pose = Pose {
+                        p: sweep.c0 - q.rotate(sweep.local_center),
+                        q,
+                    };
+                    let target_pose = Pose {
+                        p: target.position,
+                        q: frame.toi.rotation(),
+                    };
+                    let contact = (out.normal, out.point);
+                    contact_patch(&body.proxy, pose, &target.proxy, target_pose, contact, slop)
+                })
+            });
+            let start = Contact {
+                point: out.point,
+                normal: out.normal,
+                separation: out.separation,
+                patch,
+            };
+            let touch = Some(start);
+            let threshold = 0.01 * separation_tolerance(slop);
+            if let Some(patch) = patch
+                && patch_approaching(sweep, patch, out.normal, threshold)
+            {
                 return PairOutcome::Hit {
                     fraction: 0.0,
-                    point: out.point,
-                    normal: out.normal,
-                    separation: out.separation,
+                    contact: start,
                     overlapping,
                     touch,
                 };
@@ -656,10 +689,9 @@ fn pair_toi(
             // A turn so small that no point of the body moves by more than a hundredth of
             // the tolerance (rounding leaves such spins behind) counts as none: the distance
             // can then shrink by no more than that over the whole sweep.
-            let turn =
-                sweep.angular_motion().abs() * body.proxy.max_distance_from(body.local_center);
-            if turn <= 0.01 * separation_tolerance(slop)
-                && !patch_approaching(sweep, patch, out.normal, 0.0)
+            let turn = sweep.angular_motion().abs() * reach;
+            if turn <= threshold
+                && patch.is_none_or(|patch| !patch_approaching(sweep, patch, out.normal, 0.0))
             {
                 return PairOutcome::Clear { overlapping, touch };
             }
@@ -694,12 +726,15 @@ fn pair_toi(
                 ToiState::Separated => PairOutcome::Clear { overlapping, touch },
                 ToiState::Hit | ToiState::Overlapped => PairOutcome::Hit {
                     fraction: out2.fraction,
-                    point: out2.point,
-                    separation: out2.separation,
-                    normal: if out2.normal == Vec2::ZERO {
-                        out.normal
-                    } else {
-                        out2.normal
+                    contact: Contact {
+                        point: out2.point,
+                        normal: if out2.normal == Vec2::ZERO {
+                            out.normal
+                        } else {
+                            out2.normal
+                        },
+                        separation: out2.separation,
+                        patch: None,
                     },
                     overlapping,
                     touch,
@@ -729,9 +764,12 @@ fn core_fallback(
         },
         ToiState::Hit if out.fraction > 0.0 => PairOutcome::Hit {
             fraction: out.fraction,
-            point: out.point,
-            normal: out.normal,
-            separation: out.separation,
+            contact: Contact {
+                point: out.point,
+                normal: out.normal,
+                separation: out.separation,
+                patch: None,
+            },
             overlapping: true,
             touch: None,
         },
@@ -750,13 +788,17 @@ fn core_fallback(
             {
                 // The cores overlap: deeper than any band, the separation counts as minus the
                 // slop (pushed out at the most, see `solve_body`).
-                PairOutcome::Hit {
-                    fraction: 0.0,
+                let contact = Contact {
                     point: out.point,
                     normal: out.normal,
                     separation: -slop,
+                    patch: None,
+                };
+                PairOutcome::Hit {
+                    fraction: 0.0,
+                    contact,
                     overlapping: true,
-                    touch: Some((out.point, out.normal, -slop)),
+                    touch: Some(contact),
                 }
             } else if out.normal == Vec2::ZERO
                 && let Some((exit, depth)) = exit_face(target, sweep.c0)
@@ -764,13 +806,17 @@ fn core_fallback(
             {
                 // The centre itself is inside the target: moving it further in across the face
                 // it is nearest to is going deeper. Stopped, at the point of that face.
-                PairOutcome::Hit {
-                    fraction: 0.0,
+                let contact = Contact {
                     point: sweep.c0 + depth * exit,
                     normal: -exit,
                     separation: -slop,
+                    patch: None,
+                };
+                PairOutcome::Hit {
+                    fraction: 0.0,
+                    contact,
                     overlapping: true,
-                    touch: Some((sweep.c0 + depth * exit, -exit, -slop)),
+                    touch: Some(contact),
                 }
             } else {
                 PairOutcome::Clear {
@@ -815,32 +861,32 @@ fn exit_face(target: &StaticItem, point: Vec2) -> Option<(Vec2, f32)> {
 fn contact_patch(
     proxy: &ShapeProxy,
     pose: Pose,
-    target: &StaticItem,
-    normal: Vec2,
-    point: Vec2,
+    target: &ShapeProxy,
+    target_pose: Pose,
+    (normal, point): (Vec2, Vec2),
     slop: f32,
 ) -> (Vec2, Vec2) {
     let tangent = left_perp(normal);
     // Tangent extent of the core points of `p` at `pose` that lie within `slop` of its
-    // support along `dir`.
+    // support along `dir`, in `p`'s own frame: `t · (R v + x) = (Rᵀ t) · v + t · x`.
     let extent = |p: &ShapeProxy, pose: Pose, dir: Vec2| {
-        let local = pose.q.inv_rotate(dir);
+        let (local, along) = (pose.q.inv_rotate(dir), pose.q.inv_rotate(tangent));
         let top = p
             .points()
             .iter()
             .map(|v| local.dot(*v))
             .fold(f32::NEG_INFINITY, f32::max);
+        let offset = tangent.dot(pose.p);
         p.points()
             .iter()
             .filter(|v| local.dot(**v) >= top - slop)
-            .map(|v| tangent.dot(pose.transform_point(*v)))
+            .map(|v| along.dot(*v) + offset)
             .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), x| {
                 (lo.min(x), hi.max(x))
             })
     };
     let (body_lo, body_hi) = extent(proxy, pose, normal);
-    let target_pose = Pose::new(target.position, target.angle);
-    let (target_lo, target_hi) = extent(&target.proxy, target_pose, -normal);
+    let (target_lo, target_hi) = extent(target, target_pose, -normal);
     let lo = body_lo.max(target_lo);
     let hi = body_hi.min(target_hi);
     if lo.is_nan() || hi.is_nan() || lo > hi {
@@ -1179,6 +1225,10 @@ pub fn solve_body(
     let mut step_start = 0.0f32;
     // Impacts in a row that did not advance the body ([`MAX_CONTACTS_AT_ONE_POSE`]).
     let mut stalled = 0;
+    // The patches (world ends) of the contacts the last response acted on: the next sweep
+    // starts at that pose, so its pair tests need not find them again, and decide on the very
+    // points the response used.
+    let mut known: SmallVec<[(u32, (Vec2, Vec2)); MAX_CONTACTS]> = SmallVec::new();
     let mut first = true;
     loop {
         let list: &[u32] = if first {
@@ -1228,12 +1278,11 @@ pub fn solve_body(
         }
         let visits = if short { ordered } else { list.len() };
         // Earliest hit; ties go to the lowest target index.
-        let mut best: Option<(f32, u32, Vec2, Vec2, f32, bool)> = None;
+        let mut best: Option<(f32, u32, Contact, bool)> = None;
         let mut failed: Option<(f32, ToiFailure)> = None;
         // Every target the body touches at the start of the sweep: once it drives into one,
         // they are responded to together (a body in a corner).
-        let mut touching = [(0u32, Vec2::ZERO, Vec2::ZERO, 0.0f32); MAX_CONTACTS];
-        let mut touches = 0;
+        let mut touching: SmallVec<[(u32, Contact); MAX_CONTACTS]> = SmallVec::new();
         let mut nudge = None;
         for visit in 0..visits {
             let ((enter, leave), index) = if short {
@@ -1266,6 +1315,8 @@ pub fn solve_body(
             // Outside `[enter, leave]` the body is provably out of range: both tests look
             // only inside.
             let interval = (enter, t_max.min(leave));
+            // The patch of a contact the last response acted on, at this sweep's start.
+            let known_patch = known.iter().find(|k| k.0 == index).map(|k| k.1);
             match pair_toi(
                 body,
                 sweep_reach,
@@ -1275,34 +1326,30 @@ pub fn solve_body(
                 &frame,
                 slop,
                 interval,
+                known_patch,
             ) {
                 PairOutcome::Clear { overlapping, touch } => {
                     result.started_overlapping |= overlapping && first;
-                    if let Some((point, normal, gap)) = touch
-                        && touches < MAX_CONTACTS
+                    if let Some(contact) = touch
+                        && touching.len() < MAX_CONTACTS
                     {
-                        touching[touches] = (index, point, normal, gap);
-                        touches += 1;
+                        touching.push((index, contact));
                     }
                 }
                 PairOutcome::Hit {
                     fraction,
-                    point,
-                    normal,
-                    separation,
+                    contact,
                     overlapping,
                     touch,
                 } => {
                     result.started_overlapping |= overlapping && first;
                     if best.is_none_or(|b| fraction < b.0 || (fraction == b.0 && index < b.1)) {
-                        let resting = touch.is_some();
-                        best = Some((fraction, index, point, normal, separation, resting));
+                        best = Some((fraction, index, contact, touch.is_some()));
                     }
-                    if let Some((point, normal, gap)) = touch
-                        && touches < MAX_CONTACTS
+                    if let Some(contact) = touch
+                        && touching.len() < MAX_CONTACTS
                     {
-                        touching[touches] = (index, point, normal, gap);
-                        touches += 1;
+                        touching.push((index, contact));
                     }
                 }
                 PairOutcome::Failed { fraction, failure } => {
@@ -1319,6 +1366,7 @@ pub fn solve_body(
             // Moved out of a contact too close to search from, then searched again.
             sweep.c0 += offset;
             sweep.c1 += offset;
+            known.clear();
             result.nudged = true;
             first = false;
             stalled += 1;
@@ -1341,16 +1389,16 @@ pub fn solve_body(
                 break;
             }
         }
-        let Some((fraction, index, point, normal, gap, resting)) = best else {
+        let Some((fraction, index, hit, resting)) = best else {
             result.position = sweep.pose_at(1.0).p;
             result.angle = sweep.a1;
             break;
         };
         let step_fraction = step_start + fraction * (1.0 - step_start);
         let contacts = if fraction == 0.0 {
-            &touching[..touches]
+            &touching[..]
         } else {
-            &[(index, point, normal, gap)][..]
+            &[(index, hit)][..]
         };
         let center = sweep.center_at(fraction);
         let angle = sweep.angle_at(fraction);
@@ -1359,19 +1407,34 @@ pub fn solve_body(
         // push: a contact closer than the hits of the time of impact (a body that slid or
         // turned into a lowered band, see `pair_toi`) is sent back toward them over a step,
         // at most one slop a step, so that repeated contacts do not creep ever closer.
-        let mut patches = [((Vec2::ZERO, Vec2::ZERO), Vec2::ZERO, 0.0); MAX_CONTACTS];
+        let mut patches: SmallVec<[((Vec2, Vec2), Vec2, f32); MAX_CONTACTS]> = SmallVec::new();
         let hits_at = target_separation(slop) - separation_tolerance(slop);
-        for (patch, &(index, point, normal, gap)) in patches.iter_mut().zip(contacts) {
+        known.clear();
+        for &(index, contact) in contacts {
+            let Contact {
+                point,
+                normal,
+                separation: gap,
+                ..
+            } = contact;
             impacts.push(ImpactRecord {
                 target: index,
                 fraction: step_fraction,
                 point,
                 normal: -normal,
             });
-            let target = &statics.items[index as usize];
-            let (a, b) = contact_patch(&body.proxy, pose, target, normal, point, slop);
+            let (a, b) = contact.patch.unwrap_or_else(|| {
+                let target = &statics.items[index as usize];
+                let target_pose = Pose {
+                    p: target.position,
+                    q: statics.records[index as usize].key.rotation,
+                };
+                let contact = (normal, point);
+                contact_patch(&body.proxy, pose, &target.proxy, target_pose, contact, slop)
+            });
+            known.push((index, (a, b)));
             let push = (hits_at - gap).clamp(0.0, slop) / ((1.0 - step_fraction).max(0.25) * dt);
-            *patch = ((a - center, b - center), -normal, push);
+            patches.push(((a - center, b - center), -normal, push));
         }
         result.impacts += contacts.len() as u32;
         // Restitution on the first pass, then inelastic passes until no contact approaches:
@@ -1383,7 +1446,7 @@ pub fn solve_body(
         'passes: for pass in 0..CONTACT_PASSES {
             let before = velocity;
             let restitution = if pass == 0 { body.restitution } else { 0.0 };
-            for &(ends, outward, _) in &patches[..contacts.len()] {
+            for &(ends, outward, _) in &patches {
                 let mass = (body.mass, body.inertia);
                 match patch_response(velocity, ends, outward, mass, (restitution, body.friction)) {
                     Ok(after) => velocity = after,
@@ -1408,7 +1471,7 @@ pub fn solve_body(
         }
         // The push, through the centre of mass (every point of the body moves away, whatever
         // it turns), after the contacts are resolved.
-        for &(_, outward, push) in &patches[..contacts.len()] {
+        for &(_, outward, push) in &patches {
             let along = velocity.0.dot(outward);
             if along < push {
                 velocity.0 += (push - along) * outward;
