@@ -1178,6 +1178,10 @@ fn point_impulse(body: &ResponseBody, velocity: (DVec2, f64), r: DVec2) -> (DVec
     (v + settle * inv_m * normal, w + rn * settle * inv_i)
 }
 
+/// One contact as [`solve_body`] responds to it: the ends of its patch (from the centre of
+/// mass), the outward normal, and the push (m/s).
+type Response = ((Vec2, Vec2), Vec2, f32);
+
 /// Targets of one sweep that [`solve_body`] orders on the stack by when the body can first
 /// reach them (a swept box rarely holds more than a handful).
 const ORDERED_TARGETS: usize = 32;
@@ -1407,7 +1411,7 @@ pub fn solve_body(
         // push: a contact closer than the hits of the time of impact (a body that slid or
         // turned into a lowered band, see `pair_toi`) is sent back toward them over a step,
         // at most one slop a step, so that repeated contacts do not creep ever closer.
-        let mut patches: SmallVec<[((Vec2, Vec2), Vec2, f32); MAX_CONTACTS]> = SmallVec::new();
+        let mut patches: SmallVec<[Response; MAX_CONTACTS]> = SmallVec::new();
         let hits_at = target_separation(slop) - separation_tolerance(slop);
         known.clear();
         for &(index, contact) in contacts {
