@@ -336,8 +336,11 @@ pub struct BodyOutcome {
     /// A time-of-impact failure (the body was clamped at the last clear time) or a failed
     /// response (the body was clamped at the impact).
     pub failure: Option<ToiFailure>,
-    /// The body was moved out of a contact too close for the time of impact to search from
-    /// (a few micrometres, see [`FINEST_TOLERANCE`]): `position` is not on the sweep given.
+    /// The body was moved out along a contact's normal before it was swept: its sharp corner
+    /// was a few micrometres from the target (closer than the time of impact can search from,
+    /// see [`FINEST_TOLERANCE`]), or repeated contacts had pressed it to the slop's depth.
+    /// `position` is then not on the sweep given; the move is at most a few tenths of a
+    /// millimetre at the default slop.
     pub nudged: bool,
 }
 
@@ -716,6 +719,13 @@ fn pair_toi(
                 return PairOutcome::Nudge((core_distance - 8.0 * finest) * out.normal);
             }
             let fine = (0.25 * core_distance).clamp(finest, 0.1 * tolerance);
+            // Hits of the band land within `fine` of its target: a target below `deepest` could
+            // leave the body deeper than the slop. A start already too deep for a band above
+            // it (pressed there by repeated contacts) is moved out until one fits.
+            let deepest = -slop + 2.0 * fine;
+            if start - 1.5 * fine < deepest {
+                return PairOutcome::Nudge((start - deepest - 2.5 * fine) * out.normal);
+            }
             input.config.linear_slop = 4.0 * fine;
             let lowered = (start - 2.0 * fine)
                 .max(-0.5 * slop)
@@ -1840,12 +1850,12 @@ mod tests {
         separation(proxy, &sweep, target, 0.0)
     }
 
-    /// The arena's floor (top face at y = -24.995), as one target.
+    /// The arena's floor (top face at y = -25), as one target.
     fn floor() -> StaticSet {
         let mut statics = StaticSet::default();
         statics.rebuild([StaticItem {
             proxy: Shape::from(Polygon::rectangle(25.01, 0.005).unwrap()).proxy(),
-            position: Vec2::new(0.0, -25.0),
+            position: Vec2::new(0.0, -25.005),
             angle: 0.0,
         }]);
         statics
