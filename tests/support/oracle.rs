@@ -7,6 +7,7 @@
 #![allow(dead_code)]
 
 use bevy_ccd::geometry::{ShapeProxy, Sweep, ToiInput, ToiOutput, ToiState};
+use bevy_ccd::testing::SceneRng;
 use glam::Vec2;
 use serde::Deserialize;
 
@@ -465,42 +466,24 @@ pub const SEPARATED_FAMILY: &str = "separated";
 /// The family name of [`separated_cases`] with `near = true`.
 pub const NEAR_MISS_FAMILY: &str = "near_miss";
 
-/// A small deterministic generator (SplitMix64, Steele, Lea and Flood, OOPSLA 2014), so the
-/// generated cases are the same on every run and machine.
-struct SplitMix(u64);
-
-impl SplitMix {
-    fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-
-    /// Uniform in `[lo, hi)`, rounded to f32 (the cases are f32 numbers).
-    fn range(&mut self, lo: f32, hi: f32) -> f32 {
-        let u = (self.next_u64() >> 40) as f32 / (1u64 << 24) as f32;
-        lo + u * (hi - lo)
-    }
-
-    fn below(&mut self, n: usize) -> usize {
-        (self.next_u64() % n as u64) as usize
-    }
+/// An index below `n`, from the crate's seeded generator (SplitMix64), so the generated cases
+/// are the same on every run and machine.
+fn below(rng: &mut SceneRng, n: usize) -> usize {
+    (rng.next_u64() % n as u64) as usize
 }
 
 /// A random shape of the README's kinds: circle, capsule, segment, box, or a convex polygon of
 /// 3..8 vertices (rounded or not), 0.05..1.5 m across.
-fn random_shape(rng: &mut SplitMix) -> ShapeJson {
+fn random_shape(rng: &mut SceneRng) -> ShapeJson {
     let size = rng.range(0.05, 0.75);
-    match rng.below(6) {
+    match below(rng, 6) {
         0 => ShapeJson {
             points: vec![[0.0, 0.0]],
             radius: size,
         },
         1 | 2 => ShapeJson {
             points: vec![[-size, 0.0], [size, 0.0]],
-            radius: if rng.below(2) == 0 {
+            radius: if below(rng, 2) == 0 {
                 0.0
             } else {
                 rng.range(0.02, 0.3)
@@ -515,7 +498,7 @@ fn random_shape(rng: &mut SplitMix) -> ShapeJson {
         }
         _ => {
             // Vertices on a circle at jittered, increasing angles: convex and counter-clockwise.
-            let n = 3 + rng.below(6);
+            let n = 3 + below(rng, 6);
             let step = core::f32::consts::TAU / n as f32;
             let points = (0..n)
                 .map(|i| {
@@ -525,7 +508,7 @@ fn random_shape(rng: &mut SplitMix) -> ShapeJson {
                 .collect();
             ShapeJson {
                 points,
-                radius: if rng.below(3) == 0 {
+                radius: if below(rng, 3) == 0 {
                     rng.range(0.01, 0.1)
                 } else {
                     0.0
@@ -561,14 +544,14 @@ pub fn separated_cases(count: usize, near: bool) -> Vec<Case> {
     } else {
         SEPARATED_FAMILY
     };
-    let mut rng = SplitMix(if near { 0x0EA5_1115 } else { 0x5EED_CA5E });
+    let mut rng = SceneRng::new(if near { 0x0EA5_1115 } else { 0x5EED_CA5E });
     let mut cases = Vec::with_capacity(count);
     while cases.len() < count {
         let a = random_shape(&mut rng);
         let b = random_shape(&mut rng);
-        let sweep = |rng: &mut SplitMix, c0: [f32; 2], moving: bool| {
+        let sweep = |rng: &mut SceneRng, c0: [f32; 2], moving: bool| {
             let (v, w) = if moving {
-                let turn = if rng.below(3) == 0 {
+                let turn = if below(rng, 3) == 0 {
                     0.0
                 } else {
                     rng.range(-2.0, 2.0)
@@ -588,7 +571,7 @@ pub fn separated_cases(count: usize, near: bool) -> Vec<Case> {
         };
         // A at rest half of the time (a wall or a sleeping body), B always moving; B starts
         // within a few metres of A, so the swept boxes mostly overlap.
-        let a_moves = rng.below(2) == 0;
+        let a_moves = below(&mut rng, 2) == 0;
         let sweep_a = sweep(&mut rng, [0.0, 0.0], a_moves);
         let start = [rng.range(-4.0, 4.0), rng.range(-4.0, 4.0)];
         let sweep_b = sweep(&mut rng, start, true);
