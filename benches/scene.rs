@@ -710,12 +710,9 @@ type Speedups = BTreeMap<(usize, usize, &'static str), (f64, usize, f64, usize)>
 /// Steps per side and round of [`paired_speedup`] in blocks, about 20 ms at 10,000 bodies on
 /// one thread.
 ///
-/// Measured at 10k × 1k, clamp, median step time by position in blocks of 12 (three runs,
-/// eighth session, with a build that also kept the pool's thread spinning between regions,
-/// not kept): two threads 2.22-2.25, 2.11-2.17, 2.12-2.13, 2.10-2.12 ms, then
-/// 2.03-2.09 ms from the fifth step on; one thread within ±1 % of its steady time throughout.
-/// Blocks of 12 less 4 against these blocks of 6 less 1, alternating in one process (nine
-/// pairs): mean speed-up 1.651 against 1.659, no difference the host's noise lets through.
+/// The first steps of a block on two threads are slower (the pool thread waking and warming
+/// its cache); one thread stays within ±1 % of its steady time. Longer blocks read the same
+/// speed-up within the host's noise (`BENCHMARKS.md`, decisions).
 const SPEEDUP_BLOCK: usize = 6;
 /// Steps not kept at the start of each block of [`paired_speedup`], on both sides.
 const SPEEDUP_DROP: usize = 1;
@@ -752,8 +749,8 @@ fn paired_difference(off: &mut dyn Peer, on: &mut dyn Peer) -> (f64, usize) {
 /// ([`paired_difference`]), so that our cost and the peer's are taken seconds apart rather
 /// than minutes: the host's capacity moves by ±20 % from minute to minute. A window, not
 /// steps interleaved with the peer's: interleaved, the two worlds evict each other's caches
-/// (at 1,000 bodies ours read 0.55-0.62 µs a body beside a peer against 0.43 alone, seventh
-/// session); the first steps of a window, which pay for that, are dropped.
+/// (at 1,000 bodies ours read 20-80 % slower beside a peer than alone); the first steps of a
+/// window, which pay for that, are dropped.
 ///
 /// Also for the growth and statics ratios, from windows of the two scenes alternating
 /// ([`alternating_ratio`]).
@@ -975,9 +972,9 @@ fn main() {
     // The 10k-body scenes, kept for the later windows of their speed-up. The speed-up at 10,000
     // bodies is paired in blocks in three windows minutes apart (after the scene's criterion
     // groups, after every size of ours, after the peers); the summary gives every reading and
-    // their median. One window of two seconds can fall where the host's second core stalls: in
-    // the sixth session's run 35 the 10k x 1k clamp speed-up read 1.98 from the criterion
-    // medians and 1.49 paired in blocks a minute later.
+    // their median. One window of two seconds can fall where the host's second core stalls
+    // (the 10k x 1k clamp speed-up has read 1.98 from the criterion medians and 1.49 paired in
+    // blocks a minute later).
     // The other scenes are kept too: for the windows of ours beside each peer, and for the
     // growth and statics ratios from alternating windows.
     let mut kept: Vec<(usize, usize, Ours)> = Vec::new();

@@ -63,12 +63,9 @@ use crate::geometry::LINEAR_SLOP;
 /// [`CcdSchedule`]. The price: systems of yours in the same schedule do not run beside the
 /// CCD step.
 ///
-/// Why: on the multi-threaded executor each phase's system was handed to a pool thread (a
-/// wake-up and a trip back, 20-150 µs each on our 2-core VM) and its data moved to that
-/// core's cache. Measured there (`BENCHMARKS.md`, seventh session), one thread: a 1,000-body
-/// step 0.30-0.40 ms against 0.42-0.44 ms handed out (full runs the same hour), a
-/// 10,000-body step 3.4-3.8 ms against 4.1-4.7 ms (six alternating runs); on two threads
-/// (this thread and one pool thread against two pool threads) 2.2-2.5 against 2.3-3.1 ms.
+/// Why: on the multi-threaded executor each phase's system is handed to a pool thread (a
+/// wake-up and a trip back) and its data moved to that core's cache, which costs a 1,000-body
+/// step about a quarter of its time (`BENCHMARKS.md`, decisions).
 ///
 /// ```
 /// use bevy_app::prelude::*;
