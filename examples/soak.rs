@@ -13,6 +13,8 @@
 
 use std::time::Instant;
 
+use bevy_ecs::prelude::*;
+
 use bevy_ccd::geometry::LINEAR_SLOP;
 use bevy_ccd::prelude::*;
 use bevy_ccd::testing::{
@@ -79,6 +81,23 @@ fn soak(label: &str, resolution: Resolution, bodies: usize, steps: usize, seed: 
             );
         }
     }
+    // A hash of every body's final pose bits, in entity order: equal across builds exactly
+    // when they computed the same poses (determinism, refactors).
+    let world = app.world_mut();
+    let mut poses: Vec<_> = world
+        .query_filtered::<(Entity, &bevy_transform::components::Transform), With<CcdEnabled>>()
+        .iter(world)
+        .map(|(e, t)| (e, *t))
+        .collect();
+    poses.sort_by_key(|(e, _)| *e);
+    let mut hash = 0xcbf2_9ce4_8422_2325u64;
+    for (_, t) in &poses {
+        for x in [t.translation.x, t.translation.y, t.rotation.z, t.rotation.w] {
+            // FNV-1a over the bits.
+            hash = (hash ^ x.to_bits() as u64).wrapping_mul(0x0100_0000_01b3);
+        }
+    }
+    println!("{label}: pose hash {hash:016x}");
     let frozen = liveness.frozen();
     assert!(
         frozen.is_empty(),
