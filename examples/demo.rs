@@ -87,16 +87,16 @@ fn run_arena(
         elapsed += start.elapsed().as_secs_f64();
         let world = app.world_mut();
         for (i, e) in traced.iter().enumerate() {
-            if let Some(hit) = world.get::<TimeOfImpact>(*e).and_then(|t| t.first_hit) {
+            if let Some(hit) = world.get::<CcdOutcome>(*e).and_then(|t| t.first_hit().copied()) {
                 traces.hits.push(hit.point);
                 let _ = i;
             }
         }
-        let mut q = world.query::<&TimeOfImpact>();
+        let mut q = world.query::<&CcdOutcome>();
         for toi in q.iter(world) {
-            row.impacts += toi.impacts as u64;
-            row.substeps += toi.substeps as u64;
-            row.errors += (toi.status == CcdStatus::Error) as u64;
+            row.impacts += toi.impacts() as u64;
+            row.substeps += toi.substeps() as u64;
+            row.errors += toi.error().is_some() as u64;
         }
         row.worst_penetration = row.worst_penetration.max(deepest_penetration(world).0);
     }
@@ -143,8 +143,8 @@ fn falling_ball(ccd: bool) -> (Vec<Vec2>, Option<Vec2>) {
         app.step_fixed(1);
         if let Some(h) = app
             .world()
-            .get::<TimeOfImpact>(ball)
-            .and_then(|t| t.first_hit)
+            .get::<CcdOutcome>(ball)
+            .and_then(|t| t.first_hit().copied())
         {
             hit.get_or_insert(h.point);
         }

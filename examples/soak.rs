@@ -53,12 +53,12 @@ fn soak(label: &str, resolution: Resolution, bodies: usize, steps: usize, seed: 
         step_time += t.elapsed().as_secs_f64();
         liveness.observe(app.world_mut());
         let world = app.world_mut();
-        let mut q = world.query::<&TimeOfImpact>();
+        let mut q = world.query::<&CcdOutcome>();
         for toi in q.iter(world) {
-            impacts += toi.impacts as u64;
-            substeps += toi.substeps as u64;
-            failed += (toi.status == CcdStatus::Error) as u64;
-            overlapping += (toi.status == CcdStatus::Overlapping) as u64;
+            impacts += toi.impacts() as u64;
+            substeps += toi.substeps() as u64;
+            failed += toi.error().is_some() as u64;
+            overlapping += matches!(toi, CcdOutcome::Overlapping(_)) as u64;
         }
         let outside = bodies_outside(world, bounds);
         assert!(

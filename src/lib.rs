@@ -35,15 +35,16 @@
 pub mod geometry;
 pub mod plugin;
 
+#[cfg(any(test, feature = "testing"))]
 pub use plugin::testing;
 
 /// The plugin, its components, sets and configuration.
 pub mod prelude {
     pub use crate::geometry::{Aabb, ShapeError};
     pub use crate::plugin::{
-        BodyMass, CcdConfig, CcdEnabled, CcdError, CcdImpact, CcdPlugin, CcdSchedule,
-        CcdStartSchedule, CcdStatus, CcdSystems, Collider, Friction, Impact, Resolution,
-        Restitution, StaticCollider, Sweep, TimeOfImpact, Velocity,
+        BodyMass, CcdConfig, CcdDiagnostics, CcdEnabled, CcdError, CcdImpact, CcdOutcome,
+        CcdPlugin, CcdSchedule, CcdStartSchedule, CcdStepSystems, CcdSystems, Collider, Friction,
+        Hits, Resolution, Restitution, StaticCollider, StepPoses, Velocity,
     };
     pub use glam::Vec2;
 }

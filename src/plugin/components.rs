@@ -6,10 +6,10 @@ use bevy_ecs::world::DeferredWorld;
 use bevy_reflect::prelude::*;
 use glam::Vec2;
 
-use super::CcdWorkspace;
+use super::CcdOutcome;
+use super::workspace::CcdWorkspace;
 use crate::geometry::{
     self, Capsule, Circle, MassProperties, Polygon, Segment, Shape, ShapeError, ShapeProxy,
-    ToiFailure,
 };
 use bevy_transform::components::Transform;
 
@@ -39,7 +39,7 @@ use bevy_transform::components::Transform;
 /// learns of every insertion and removal from the component's hooks, so it rebuilds its static
 /// hierarchy only when a static's shape really changed, without scanning every static each step
 /// (a 100,000-static level would cost about 0.1 ms a step to scan), and keeps what the broad
-/// phase needs of a body's shape in its [`Sweep`].
+/// phase needs of a body's shape in its [`StepPoses`].
 #[derive(Component, Reflect, Clone, Copy, Debug, PartialEq)]
 #[component(immutable, on_insert = collider_inserted, on_remove = static_shape_changed)]
 #[reflect(opaque)]
@@ -197,12 +197,12 @@ fn static_shape_changed(world: DeferredWorld, context: HookContext) {
 }
 
 /// Hook of [`Collider`] (insertion or replacement): a static's hierarchy is stale, a body's
-/// [`Sweep`] takes the new shape's summary.
+/// [`StepPoses`] takes the new shape's summary.
 fn collider_inserted(mut world: DeferredWorld, context: HookContext) {
     let entity = world.entity(context.entity);
     let is_static = entity.contains::<StaticCollider>();
     let shape = entity.get::<Collider>().map(ShapeSummary::of);
-    if let (Some(shape), Some(mut sweep)) = (shape, world.get_mut::<Sweep>(context.entity)) {
+    if let (Some(shape), Some(mut sweep)) = (shape, world.get_mut::<StepPoses>(context.entity)) {
         shape.write(sweep.bypass_change_detection());
     }
     if is_static {
@@ -210,19 +210,19 @@ fn collider_inserted(mut world: DeferredWorld, context: HookContext) {
     }
 }
 
-/// Hook of [`Sweep`] (insertion, which [`CcdEnabled`] brings): it takes the summary of the
+/// Hook of [`StepPoses`] (insertion, which [`CcdEnabled`] brings): it takes the summary of the
 /// body's [`Collider`], if any yet, and the body's pose now as the start of its first sweep, so
 /// that a body spawned during a fixed step (by a system before the movement, say) is swept
 /// from where it was spawned in that very step.
-fn sweep_inserted(mut world: DeferredWorld, context: HookContext) {
+fn poses_inserted(mut world: DeferredWorld, context: HookContext) {
     let entity = world.entity(context.entity);
     let shape = entity.get::<Collider>().map(ShapeSummary::of);
-    let pose = entity.get::<Transform>().map(super::systems::planar_pose);
+    let pose = entity.get::<Transform>().map(super::record::planar_pose);
     let enabled = entity.get::<CcdEnabled>().is_some_and(|e| e.0);
     let step = world
         .get_resource::<CcdWorkspace>()
-        .map_or(0, CcdWorkspace::step);
-    let Some(mut sweep) = world.get_mut::<Sweep>(context.entity) else {
+        .map_or(0, |workspace| workspace.step);
+    let Some(mut sweep) = world.get_mut::<StepPoses>(context.entity) else {
         return;
     };
     let sweep = sweep.bypass_change_detection();
@@ -242,10 +242,10 @@ fn sweep_inserted(mut world: DeferredWorld, context: HookContext) {
     }
 }
 
-/// What the broad phase needs of a body's [`Collider`], kept in its [`Sweep`] by the hooks of
+/// What the broad phase needs of a body's [`Collider`], kept in its [`StepPoses`] by the hooks of
 /// both components (the collider is immutable, so every change goes through them): the
 /// gather then reads one component, sequentially, instead of looking the collider up by
-/// entity, a cache miss per body (7 % of a 10,000-body step, `perf`).
+/// entity, a cache miss per body .
 struct ShapeSummary {
     local_center: Vec2,
     reach: f32,
@@ -262,7 +262,7 @@ impl ShapeSummary {
         }
     }
 
-    fn write(self, sweep: &mut Sweep) {
+    fn write(self, sweep: &mut StepPoses) {
         sweep.local_center = self.local_center;
         sweep.reach = self.reach;
         sweep.mass_ok = self.mass_ok;
@@ -283,7 +283,7 @@ pub(crate) fn usable_mass(mass: f32, inertia: f32) -> bool {
 /// removing it, during a step takes effect at the next one. A body spawned with it during a
 /// step (or given it for the first time) is swept in that step already, from where it was
 /// spawned. Bodies need a [`Collider`] (an enabled body without one gets a warning, once, and
-/// is not swept); a [`Sweep`], a [`TimeOfImpact`] and a `Transform` are added for them.
+/// is not swept); a [`StepPoses`], a [`CcdOutcome`] and a `Transform` are added for them.
 ///
 /// ```
 /// use bevy_ccd::prelude::*;
@@ -296,7 +296,7 @@ pub(crate) fn usable_mass(mass: f32, inertia: f32) -> bool {
 /// ```
 #[derive(Component, Reflect, Clone, Copy, Debug, PartialEq, Eq)]
 #[reflect(Component, Default, Debug, Clone)]
-#[require(Transform, Sweep, TimeOfImpact)]
+#[require(Transform, StepPoses, CcdOutcome)]
 pub struct CcdEnabled(
     /// Whether the body is swept. The default is `true`.
     pub bool,
@@ -308,13 +308,18 @@ impl Default for CcdEnabled {
     }
 }
 
-/// The motion of a body over the last step, maintained by the plugin (read-only for users).
+/// The poses of a body in the last step, recorded by the plugin: where the step began, where
+/// the user's code moved it, and where the plugin left it.
 ///
-/// `start_*` is recorded at the beginning of the fixed step, `end_*` after the user's
-/// movement systems; after resolution, `resolved_*` holds where the plugin left the body.
-/// The plugin rewrites it for every swept body every step without flagging a change (a
-/// `Changed<Sweep>` filter would match every moving body every step and say nothing; skipping
-/// the change ticks saves a write per body per pass).
+/// `start` is recorded when the fixed step begins ([`CcdSystems::RecordStart`]), `end` after
+/// the user's movement systems ([`CcdStepSystems::RecordEnd`]), `resolved` by the solve
+/// ([`CcdStepSystems::Solve`]). The plugin rewrites it for every swept body every step without
+/// flagging a change (a `Changed<StepPoses>` filter would match every moving body every step
+/// and say nothing). It also holds what the plugin keeps of each body between steps, private.
+///
+/// [`CcdSystems::RecordStart`]: super::CcdSystems::RecordStart
+/// [`CcdStepSystems::RecordEnd`]: super::CcdStepSystems::RecordEnd
+/// [`CcdStepSystems::Solve`]: super::CcdStepSystems::Solve
 ///
 /// ```
 /// use bevy_ccd::prelude::*;
@@ -322,42 +327,42 @@ impl Default for CcdEnabled {
 ///
 /// let mut world = World::new();
 /// let body = world.spawn((Collider::circle(0.2).unwrap(), CcdEnabled::default())).id();
-/// // `CcdEnabled` requires a `Sweep`: it is there, at rest until the first step.
-/// let sweep = world.get::<Sweep>(body).unwrap();
-/// assert_eq!(sweep.start_position, sweep.end_position);
+/// // `CcdEnabled` requires `StepPoses`: it is there, at rest until the first step.
+/// let poses = world.get::<StepPoses>(body).unwrap();
+/// assert_eq!(poses.start(), poses.end());
 /// ```
 #[derive(Component, Reflect, Clone, Copy, Debug, Default, PartialEq)]
-#[component(on_insert = sweep_inserted)]
+#[component(on_insert = poses_inserted)]
 #[reflect(Component, Default, Debug, Clone)]
-pub struct Sweep {
-    /// Body origin at the start of the step (m). The default is the origin.
-    pub start_position: Vec2,
-    /// Angle at the start of the step (radians). The default is 0.
-    pub start_angle: f32,
-    /// Body origin where the user's code moved it (m). The default is the origin.
-    pub end_position: Vec2,
+pub struct StepPoses {
+    /// Body origin at the start of the step (m).
+    pub(crate) start_position: Vec2,
+    /// Angle at the start of the step (radians).
+    pub(crate) start_angle: f32,
+    /// Body origin where the user's code moved it (m).
+    pub(crate) end_position: Vec2,
     /// Angle where the user's code turned it, unwrapped so that `end_angle - start_angle` is
-    /// the whole turn (several turns when a [`Velocity`] says so). The default is 0.
-    pub end_angle: f32,
-    /// Body origin after resolution (m). The default is the origin.
-    pub resolved_position: Vec2,
-    /// Angle after resolution (radians). The default is 0.
-    pub resolved_angle: f32,
-    /// Centre of mass in the body frame (m), the [`Collider`]'s. The default is the origin.
-    pub local_center: Vec2,
-    /// Whether the body is swept in the step it was recorded in. The default is `false`.
-    pub recorded: bool,
-    /// The step the start pose was recorded in ([`CcdWorkspace`]'s count): a body is swept only
-    /// in that step, so that one no longer recorded (its [`CcdEnabled`] removed) is not swept
-    /// from a stale start.
+    /// the whole turn (several turns when a [`Velocity`] says so).
+    pub(crate) end_angle: f32,
+    /// Body origin after resolution (m).
+    pub(crate) resolved_position: Vec2,
+    /// Angle after resolution (radians).
+    pub(crate) resolved_angle: f32,
+    /// Centre of mass in the body frame (m), the [`Collider`]'s. Kept by the hooks.
+    pub(crate) local_center: Vec2,
+    /// Whether the body is swept in the step it was recorded in.
+    pub(crate) recorded: bool,
+    /// The step the start pose was recorded in (the plugin counts the steps begun): a body is
+    /// swept only in that step, so that one no longer recorded (its [`CcdEnabled`] removed) is
+    /// not swept from a stale start.
     #[reflect(ignore)]
     pub(crate) recorded_in: u32,
     /// The warning for an enabled body without a [`Collider`] was given.
     #[reflect(ignore)]
     pub(crate) warned_no_collider: bool,
-    /// `resolved_*` is where the last step left the body (the workspace keeps the tick its
-    /// write-back ran at): the next step's start can be read from it instead of from the
-    /// `Transform` when that has not changed since.
+    /// `resolved_*` is where the last step left the body (the plugin keeps the tick its solve
+    /// ran at): the next step's start can be read from it instead of from the `Transform`
+    /// when that has not changed since.
     #[reflect(ignore)]
     pub(crate) resolved_valid: bool,
     /// The [`Collider`]'s reach about `local_center` (m), see [`ShapeProxy::reach`]: whatever
@@ -370,7 +375,34 @@ pub struct Sweep {
     pub(crate) mass_ok: bool,
 }
 
-impl Sweep {
+impl StepPoses {
+    /// Body origin (m) and angle (radians) at the start of the last step.
+    pub fn start(&self) -> (Vec2, f32) {
+        (self.start_position, self.start_angle)
+    }
+
+    /// Body origin (m) and angle (radians) where the user's code moved it in the last step;
+    /// the angle unwrapped, so that `end().1 - start().1` is the whole turn (several turns
+    /// when a [`Velocity`] says so).
+    pub fn end(&self) -> (Vec2, f32) {
+        (self.end_position, self.end_angle)
+    }
+
+    /// Body origin (m) and angle (radians) where the plugin left it in the last step.
+    pub fn resolved(&self) -> (Vec2, f32) {
+        (self.resolved_position, self.resolved_angle)
+    }
+
+    /// Whether the body was swept in the step these poses were recorded in.
+    pub fn recorded(&self) -> bool {
+        self.recorded
+    }
+
+    /// Centre of mass in the body frame (m), the [`Collider`]'s.
+    pub fn local_center(&self) -> Vec2 {
+        self.local_center
+    }
+
     /// The geometry-layer sweep from the start to the user's end pose.
     pub fn motion(&self) -> geometry::Sweep {
         geometry::Sweep::from_origins(
@@ -381,89 +413,6 @@ impl Sweep {
             self.end_angle,
         )
     }
-}
-
-/// Why the plugin could not sweep a body this step. The body is left where its user put it.
-#[derive(Reflect, Clone, Copy, Debug, PartialEq, Eq)]
-#[reflect(opaque)]
-#[reflect(Debug, Clone, PartialEq)]
-pub enum CcdError {
-    /// The `Transform` (start or end) holds NaN or infinity.
-    NonFiniteTransform,
-    /// Part of the body reaches beyond [`max_world_coordinate`] of the slop, at the start or
-    /// the end of the step.
-    ///
-    /// [`max_world_coordinate`]: crate::geometry::max_world_coordinate
-    CoordinatesTooLarge,
-    /// The fixed step has zero or non-finite length.
-    ZeroLengthStep,
-    /// [`CcdConfig`](super::CcdConfig) is unusable: its `linear_slop` is not finite and
-    /// positive (at least `f32::MIN_POSITIVE`), or its `timestep` is set but not finite and
-    /// positive. Every body is left where its user put it, with one warning.
-    InvalidSettings,
-    /// The `Velocity` or mass properties hold NaN, infinity or a non-positive mass.
-    InvalidBodyData,
-    /// The time of impact failed against a target, the body clamped at the last time known to
-    /// be clear; or the response at an impact failed, the body clamped at the impact.
-    Toi(ToiFailure),
-}
-
-/// What happened to a body in the last step.
-#[derive(Reflect, Clone, Copy, Debug, Default, PartialEq, Eq)]
-#[reflect(Debug, Clone, PartialEq, Default)]
-pub enum CcdStatus {
-    /// Not swept (disabled, or no step yet).
-    #[default]
-    Idle,
-    /// Swept; nothing in the way.
-    Clear,
-    /// Swept; hit a target (see [`TimeOfImpact::first_hit`]).
-    Hit,
-    /// Started the step overlapping a target; motion that separates was allowed.
-    Overlapping,
-    /// Could not be swept; see [`TimeOfImpact::error`].
-    Error,
-}
-
-/// One impact of a body against a target.
-#[derive(Reflect, Clone, Copy, Debug, PartialEq)]
-#[reflect(Debug, Clone, PartialEq)]
-pub struct Impact {
-    /// The target hit.
-    pub other: Entity,
-    /// Fraction of the step at which it happened, in `[0, 1]`.
-    pub fraction: f32,
-    /// Contact point (world, m).
-    pub point: Vec2,
-    /// Unit normal from the target toward the body.
-    pub normal: Vec2,
-}
-
-/// The outcome of the last step for one body, written by the plugin.
-///
-/// ```
-/// use bevy_ccd::prelude::*;
-/// use bevy_ecs::prelude::*;
-///
-/// let mut world = World::new();
-/// let body = world.spawn((Collider::circle(0.2).unwrap(), CcdEnabled::default())).id();
-/// let toi = world.get::<TimeOfImpact>(body).unwrap();
-/// assert_eq!(toi.status, CcdStatus::Idle);
-/// assert!(toi.first_hit.is_none());
-/// ```
-#[derive(Component, Reflect, Clone, Copy, Debug, Default, PartialEq)]
-#[reflect(Component, Default, Debug, Clone)]
-pub struct TimeOfImpact {
-    /// What happened. The default is [`CcdStatus::Idle`].
-    pub status: CcdStatus,
-    /// The earliest impact of the step, if any. The default is `None`.
-    pub first_hit: Option<Impact>,
-    /// The error, when `status` is [`CcdStatus::Error`]. The default is `None`.
-    pub error: Option<CcdError>,
-    /// Impacts this step (sub-steps included). The default is 0.
-    pub impacts: u32,
-    /// Sub-steps spent after impacts. The default is 0.
-    pub substeps: u32,
 }
 
 /// A body's velocity, which the plugin reads (to unwrap several turns per step) and changes

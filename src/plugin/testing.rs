@@ -114,7 +114,7 @@ pub fn bodies_outside(world: &mut World, bounds: Aabb) -> Vec<Entity> {
     let mut out: Vec<Entity> = query
         .iter(world)
         .filter(|(_, transform, collider)| {
-            let (p, angle) = super::systems::planar_pose(transform);
+            let (p, angle) = super::record::planar_pose(transform);
             let pose = Pose::new(p, angle);
             let aabb = collider.proxy().aabb(pose);
             !(aabb.is_valid() && bounds.contains(&aabb))

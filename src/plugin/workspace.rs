@@ -1,0 +1,191 @@
+//! The plugin's buffers between steps: the static targets, this step's body entries and
+//! their lanes, the warnings given once. Internal; what a user may read of it is published in
+//! [`CcdDiagnostics`](super::CcdDiagnostics).
+
+use bevy_ecs::change_detection::Tick;
+use bevy_ecs::prelude::*;
+use glam::Vec2;
+
+use super::components::StepPoses;
+use super::outcome::CcdError;
+use crate::geometry::{self, ImpactRecord, StaticSet};
+
+/// One CCD body of this step: what the solver needs, then what it did.
+///
+/// Kept small on purpose (the memory budget is 256 bytes per body, components included): the
+/// shape is not copied (the solver reads it from the [`Collider`](super::Collider) in place),
+/// candidate targets and impacts live in per-lane flat lists, and the outcome is packed.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct BodyEntry {
+    pub(crate) entity: Entity,
+    /// The motion over the step. The listing stores the raw origins here (with the centre of
+    /// mass in the body frame); the gather turns them into the centre-of-mass sweep.
+    pub(crate) sweep: geometry::Sweep,
+    pub(crate) mass: f32,
+    pub(crate) inertia: f32,
+    pub(crate) restitution: f32,
+    pub(crate) friction: f32,
+    /// The body's velocity on the way in (when [`HAS_VELOCITY`]), the new one on the way out.
+    pub(crate) velocity: Vec2,
+    pub(crate) angular: f32,
+    /// This body's candidate targets: `lane.candidates[candidates..candidates + count]`.
+    pub(crate) candidates: u32,
+    pub(crate) candidate_count: u32,
+    /// This body's impacts: `lane.impacts[impacts..impacts + impact_count]`.
+    pub(crate) impacts: u32,
+    pub(crate) impact_count: u16,
+    pub(crate) substeps: u16,
+    /// Where the solver left the body origin, and its angle.
+    pub(crate) position: Vec2,
+    pub(crate) angle: f32,
+    pub(crate) flags: u8,
+    /// Why the body was not swept, or the time of impact that failed.
+    pub(crate) error: Option<CcdError>,
+    /// The shape's reach about its centre of mass ([`StepPoses`]' copy of the collider's).
+    pub(crate) reach: f32,
+}
+
+/// [`BodyEntry::flags`]: the body keeps a [`Velocity`](super::Velocity).
+pub(crate) const HAS_VELOCITY: u8 = 1;
+/// [`BodyEntry::flags`]: the body started the step overlapping a target.
+pub(crate) const OVERLAPPING: u8 = 2;
+/// [`BodyEntry::flags`]: a [`BodyMass`](super::BodyMass) gave the mass and inertia.
+pub(crate) const HAS_MASS: u8 = 4;
+/// [`BodyEntry::flags`]: the collider's own mass and inertia are usable.
+pub(crate) const COLLIDER_MASS_OK: u8 = 8;
+/// [`BodyEntry::flags`]: the body's [`CcdOutcome`](super::CcdOutcome) was `CcdOutcome::Clear` before this
+/// step.
+pub(crate) const WAS_CLEAR: u8 = 16;
+/// [`BodyEntry::flags`]: the solver moved the body out of a contact too close to search from
+/// ([`geometry::BodyOutcome::nudged`]), so it does not end at its user's pose.
+pub(crate) const NUDGED: u8 = 32;
+
+impl BodyEntry {
+    /// An entry with the recorded poses of `poses`, nothing else filled in yet.
+    pub(crate) fn new(entity: Entity, poses: &StepPoses) -> Self {
+        Self {
+            entity,
+            sweep: geometry::Sweep {
+                local_center: poses.local_center,
+                c0: poses.start_position,
+                c1: poses.end_position,
+                a0: poses.start_angle,
+                a1: poses.end_angle,
+            },
+            mass: 0.0,
+            inertia: 0.0,
+            restitution: 0.0,
+            friction: 0.0,
+            velocity: Vec2::ZERO,
+            angular: 0.0,
+            candidates: 0,
+            candidate_count: 0,
+            impacts: 0,
+            impact_count: 0,
+            substeps: 0,
+            position: Vec2::ZERO,
+            angle: 0.0,
+            flags: if poses.mass_ok { COLLIDER_MASS_OK } else { 0 },
+            error: None,
+            reach: poses.reach,
+        }
+    }
+}
+
+/// The buffers of one lane: a contiguous run of bodies that one thread lists, queries,
+/// solves and writes back. Flat lists instead of one small vector per body: a few bytes per
+/// body instead of dozens, and nothing allocated once the lists have grown.
+#[derive(Default)]
+pub(crate) struct Lane {
+    pub(crate) candidates: Vec<u32>,
+    pub(crate) impacts: Vec<ImpactRecord>,
+    /// The bodies (index within the lane) that have impacts, in order.
+    pub(crate) hit: Vec<u32>,
+    /// The bodies (index within the lane) whose components the write-back must visit: those
+    /// with impacts, errors or overlaps, and those whose outcome was not clear before.
+    pub(crate) visit: Vec<u32>,
+    pub(crate) scratch: Vec<u32>,
+}
+
+impl Lane {
+    fn bytes(&self) -> usize {
+        self.candidates.capacity() * size_of::<u32>()
+            + self.impacts.capacity() * size_of::<ImpactRecord>()
+            + (self.hit.capacity() + self.visit.capacity() + self.scratch.capacity())
+                * size_of::<u32>()
+    }
+}
+
+/// The plugin's buffers: the static world and this step's bodies and lanes. Kept between
+/// steps so that the steady state allocates nothing of its own.
+#[derive(Resource, Default)]
+pub(crate) struct CcdWorkspace {
+    pub(crate) statics: StaticSet,
+    /// The entity of each target (target `i` is the `i`-th static in entity order).
+    pub(crate) static_entities: Vec<Entity>,
+    /// The hierarchy holds every static as it is now.
+    pub(crate) statics_ready: bool,
+    /// The coordinate limit the hierarchy was built with: a new slop rebuilds it.
+    pub(crate) statics_limit: f32,
+    /// Times the hierarchy was built.
+    pub(crate) rebuilds: u64,
+    pub(crate) bodies: Vec<BodyEntry>,
+    pub(crate) lanes: Vec<Lane>,
+    /// Bodies per lane this step.
+    pub(crate) lane_len: usize,
+    /// The tick the last solve ran at: a `Transform` not changed since then is where that
+    /// solve left it (see [`record_start`](super::record::record_start)).
+    pub(crate) written_at: Option<Tick>,
+    /// Steps begun ([`record_start`](super::record::record_start) counts them):
+    /// [`StepPoses`] names the one its start was recorded in.
+    pub(crate) step: u32,
+    /// The warnings given once per app ([`Warned`]).
+    warned: u8,
+}
+
+/// The warnings [`CcdWorkspace`] gives once per app, as bits of its `warned`.
+pub(crate) struct Warned;
+
+impl Warned {
+    pub(crate) const SETTINGS: u8 = 1;
+    pub(crate) const RESTITUTION: u8 = 2;
+    pub(crate) const FRICTION: u8 = 4;
+    pub(crate) const SUBSTEPS: u8 = 8;
+}
+
+impl CcdWorkspace {
+    /// Marks the static hierarchy stale: it is rebuilt before the next sweep. Called by the
+    /// hooks of [`StaticCollider`](super::StaticCollider) and [`Collider`](super::Collider).
+    pub(crate) fn statics_changed(&mut self) {
+        self.statics_ready = false;
+    }
+
+    /// A static's [`StaticCollider`](super::StaticCollider) or [`Collider`](super::Collider)
+    /// was removed (or it was despawned): the hierarchy is stale, and the target is not hit
+    /// from now on, also by a step under way whose hierarchy holds it. Called by their hooks.
+    pub(crate) fn static_removed(&mut self, entity: Entity) {
+        self.statics_ready = false;
+        // Targets are in entity order.
+        if let Ok(index) = self.static_entities.binary_search(&entity) {
+            self.statics.disable(index);
+        }
+    }
+
+    /// Gives a warning, unless one of this kind was given before.
+    pub(crate) fn warn_once(&mut self, kind: u8, message: impl FnOnce() -> String) {
+        if self.warned & kind == 0 {
+            self.warned |= kind;
+            log::warn!("bevy_ccd: {} (warned once)", message());
+        }
+    }
+
+    /// Bytes the workspace holds per swept body (capacity of its per-body buffers divided by
+    /// the body count).
+    pub(crate) fn bytes_per_body(&self) -> usize {
+        let n = self.bodies.len().max(1);
+        (self.bodies.capacity() * size_of::<BodyEntry>()
+            + self.lanes.iter().map(Lane::bytes).sum::<usize>()
+            + self.lanes.capacity() * size_of::<Lane>())
+            / n
+    }
+}

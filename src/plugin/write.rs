@@ -1,0 +1,118 @@
+//! The write-back of a solved lane: the bodies' `Transform`s, [`Velocity`]s and
+//! [`CcdOutcome`]s, and the resolved pose the next step may start from.
+
+use bevy_ecs::prelude::*;
+use bevy_transform::components::Transform;
+use glam::Quat;
+
+use super::outcome::{CcdError, CcdImpact, CcdOutcome, Hits};
+use super::workspace::{BodyEntry, HAS_VELOCITY, Lane, NUDGED, OVERLAPPING};
+use super::{StaticCollider, StepPoses, Velocity};
+
+/// Puts a body in the error state, with a warning the first time this error shows (the
+/// settings' errors have their own, once for every body). An error repeated from the last step
+/// is left unwritten (no change flagged).
+fn set_error(toi: &mut Mut<CcdOutcome>, entity: Entity, error: CcdError) {
+    let outcome = CcdOutcome::Error(error);
+    if **toi != outcome {
+        if toi.error() != Some(error) && error != CcdError::InvalidSettings {
+            log::warn!("bevy_ccd: body {entity} not swept this step: {error:?}; left where it is");
+        }
+        **toi = outcome;
+    }
+}
+
+/// The query the write-back writes through.
+pub(crate) type WriteQuery<'w, 's> = Query<
+    'w,
+    's,
+    (
+        &'static mut Transform,
+        &'static mut StepPoses,
+        Option<&'static mut Velocity>,
+        &'static mut CcdOutcome,
+    ),
+    Without<StaticCollider>,
+>;
+
+/// Writes one solved lane back: poses, velocities and outcomes of the bodies on its `visit`
+/// list, those with impacts, errors or overlaps, and those whose outcome was not clear
+/// before. The others (most bodies, most steps) were clear and stay clear, at the end pose
+/// `record_end` already wrote as resolved.
+pub(crate) fn write_lane(
+    chunk: &[BodyEntry],
+    lane: &Lane,
+    bodies: &mut WriteQuery,
+    static_entities: &[Entity],
+) {
+    let target = |index: u32| static_entities[index as usize];
+    for &index in &lane.visit {
+        let body = &chunk[index as usize];
+        // The entity was gathered this step, so it is there: the same schedule pass solves
+        // and writes it.
+        let Ok((mut transform, mut sweep, velocity, mut toi)) = bodies.get_mut(body.entity) else {
+            continue;
+        };
+        let failed = matches!(body.error, Some(e) if !matches!(e, CcdError::Toi(_)));
+        if failed {
+            sweep.bypass_change_detection().resolved_valid = false;
+            set_error(
+                &mut toi,
+                body.entity,
+                body.error.unwrap_or(CcdError::InvalidBodyData),
+            );
+            continue;
+        }
+        // Without an impact or a failure the body ends where its user put it: that pose
+        // is left exactly as it is (the solver's went through the centre of mass and
+        // back, and a rebuilt rotation would not have the user's bits).
+        let (position, angle) =
+            if body.impact_count == 0 && body.error.is_none() && body.flags & NUDGED == 0 {
+                (sweep.end_position, sweep.end_angle)
+            } else {
+                (body.position, body.angle)
+            };
+        if position != sweep.end_position || angle != sweep.end_angle {
+            transform.translation.x = position.x;
+            transform.translation.y = position.y;
+            transform.rotation = Quat::from_rotation_z(angle);
+        }
+        let sweep = sweep.bypass_change_detection();
+        sweep.resolved_position = position;
+        sweep.resolved_angle = angle;
+        sweep.resolved_valid = true;
+        if let Some(mut v) = velocity
+            && body.flags & HAS_VELOCITY != 0
+            && (v.linear != body.velocity || v.angular != body.angular)
+        {
+            v.linear = body.velocity;
+            v.angular = body.angular;
+        }
+        let hits = (body.impact_count > 0).then(|| {
+            let i = lane.impacts[body.impacts as usize];
+            Hits {
+                first: CcdImpact {
+                    body: body.entity,
+                    target: target(i.target),
+                    fraction: i.fraction,
+                    point: i.point,
+                    normal: i.normal,
+                    substep: 0,
+                },
+                count: body.impact_count as u32,
+                substeps: body.substeps as u32,
+            }
+        });
+        let outcome = match (body.error, hits) {
+            (Some(error), _) => CcdOutcome::Error(error),
+            (None, hits) if body.flags & OVERLAPPING != 0 => CcdOutcome::Overlapping(hits),
+            (None, Some(hits)) => CcdOutcome::Hit(hits),
+            (None, None) => CcdOutcome::Clear,
+        };
+        // Leave an unchanged outcome untouched (no change flagged to the user's
+        // `Changed<TimeOfImpact>` filters).
+        if *toi != outcome {
+            *toi = outcome;
+        }
+    }
+}
