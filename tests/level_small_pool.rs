@@ -1,13 +1,10 @@
-//! The level check of `tests/level.rs` with a compute task pool of one thread, as Bevy's
+//! The level checks of `tests/level.rs` with a compute task pool of one thread, as Bevy's
 //! default pools give a 2-core machine: the thread that runs the plugin's schedules and the
 //! pool's one thread share every parallel region (two workers), and the answers must still
-//! equal the serial ones and the geometry layer's, bit for bit. The same for the record passes,
-//! which split their bodies over those two workers.
-
-#[path = "support/level.rs"]
-mod level;
+//! equal the serial ones and the geometry layer's, bit for bit.
 
 use bevy_ccd::prelude::Resolution;
+use bevy_ccd::testing::{check_level_against_geometry, check_record_passes};
 use bevy_tasks::{ComputeTaskPool, TaskPoolBuilder};
 
 #[test]
@@ -15,7 +12,7 @@ fn level_steps_match_with_a_pool_of_one_thread() {
     // The only test of this binary, so the pool is this one.
     let pool = ComputeTaskPool::get_or_init(|| TaskPoolBuilder::new().num_threads(1).build());
     assert_eq!(pool.thread_num(), 1);
-    level::check(Resolution::Clamp);
-    level::check(Resolution::SubStep { max_substeps: 4 });
-    level::check_records();
+    check_level_against_geometry(Resolution::Clamp);
+    check_level_against_geometry(Resolution::SubStep { max_substeps: 4 });
+    check_record_passes();
 }

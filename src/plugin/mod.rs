@@ -13,6 +13,8 @@ mod config;
 mod diagnostics;
 mod gather;
 mod impacts;
+#[cfg(any(test, feature = "testing"))]
+mod level_check;
 mod outcome;
 mod parallel;
 mod record;

@@ -41,6 +41,7 @@ pub use super::arena::{
     Arena, ArenaConfig, Level, LevelBody, LevelConfig, LevelStatic, SceneRng, deepest_penetration,
     generate_level, spawn_arena, spawn_level,
 };
+pub use super::level_check::{check_level_against_geometry, check_record_passes};
 use super::{CcdEnabled, CcdPlugin, Collider, StaticCollider, Velocity};
 use crate::geometry::{Aabb, Pose};
 
