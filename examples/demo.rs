@@ -87,7 +87,10 @@ fn run_arena(
         elapsed += start.elapsed().as_secs_f64();
         let world = app.world_mut();
         for (i, e) in traced.iter().enumerate() {
-            if let Some(hit) = world.get::<CcdOutcome>(*e).and_then(|t| t.first_hit().copied()) {
+            if let Some(hit) = world
+                .get::<CcdOutcome>(*e)
+                .and_then(|t| t.first_hit().copied())
+            {
                 traces.hits.push(hit.point);
                 let _ = i;
             }
