@@ -6,6 +6,8 @@
 //! Expected answers are derived here (closed forms or an `f64` evaluation of the analytic
 //! motion), never copied from the crate's output.
 
+mod support;
+
 use std::panic::{AssertUnwindSafe, catch_unwind};
 
 use bevy_ccd::geometry::{
@@ -14,10 +16,10 @@ use bevy_ccd::geometry::{
     constants::{LINEAR_SLOP, MAX_POLYGON_VERTICES, MAX_WORLD_COORDINATE, MIN_SHAPE_SIZE},
     shape_distance, time_of_impact,
 };
+use bevy_ccd::testing::SceneRng;
 use glam::Vec2;
+use support::reference::{SLOP, TOL, quadratic_first_root};
 
-const SLOP: f64 = LINEAR_SLOP as f64;
-const TOL: f64 = 0.25 * SLOP;
 /// f32 rounding allowance (m) at metre scale (a few dozen ulps of 1.2e-7 m, with margin; still
 /// 250 times smaller than the band width of 2.5e-3 m).
 const EPS: f64 = 1e-5;
@@ -26,62 +28,40 @@ fn v(x: f32, y: f32) -> Vec2 {
     Vec2::new(x, y)
 }
 
-/// A small deterministic generator (SplitMix64) so the fuzz loops are reproducible.
-struct Rng(u64);
-
-impl Rng {
-    fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    /// Uniform in [0, 1).
-    fn unit(&mut self) -> f64 {
-        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
-    }
-    fn range(&mut self, lo: f64, hi: f64) -> f32 {
-        (lo + (hi - lo) * self.unit()) as f32
-    }
-    fn below(&mut self, n: usize) -> usize {
-        (self.next_u64() % n as u64) as usize
-    }
-    /// A value from a distribution heavy in trouble: NaN, infinities, zeros, subnormals, the
-    /// largest floats, values at and around the world limit, tiny and ordinary numbers.
-    fn garbage(&mut self) -> f32 {
-        let above_limit = f32::from_bits(MAX_WORLD_COORDINATE.to_bits() + 1);
-        let specials = [
-            f32::NAN,
-            -f32::NAN,
-            f32::INFINITY,
-            f32::NEG_INFINITY,
-            0.0,
-            -0.0,
-            f32::MAX,
-            f32::MIN,
-            f32::MIN_POSITIVE,
-            -f32::MIN_POSITIVE,
-            f32::from_bits(1),            // smallest subnormal
-            -f32::from_bits(0x0007_ffff), // a negative subnormal
-            1e-40,
-            f32::EPSILON,
-            1e30,
-            -1e30,
-            MAX_WORLD_COORDINATE,
-            -MAX_WORLD_COORDINATE,
-            above_limit,
-            MIN_SHAPE_SIZE,
-            1.0,
-            -1.0,
-            0.5,
-        ];
-        match self.below(4) {
-            0 => specials[self.below(specials.len())],
-            1 => self.range(-10.0, 10.0),
-            2 => self.range(-2e6, 2e6),
-            _ => f32::from_bits(self.next_u64() as u32),
-        }
+/// A value from a distribution heavy in trouble: NaN, infinities, zeros, subnormals, the
+/// largest floats, values at and around the world limit, tiny and ordinary numbers.
+fn garbage(rng: &mut SceneRng) -> f32 {
+    let above_limit = f32::from_bits(MAX_WORLD_COORDINATE.to_bits() + 1);
+    let specials = [
+        f32::NAN,
+        -f32::NAN,
+        f32::INFINITY,
+        f32::NEG_INFINITY,
+        0.0,
+        -0.0,
+        f32::MAX,
+        f32::MIN,
+        f32::MIN_POSITIVE,
+        -f32::MIN_POSITIVE,
+        f32::from_bits(1),            // smallest subnormal
+        -f32::from_bits(0x0007_ffff), // a negative subnormal
+        1e-40,
+        f32::EPSILON,
+        1e30,
+        -1e30,
+        MAX_WORLD_COORDINATE,
+        -MAX_WORLD_COORDINATE,
+        above_limit,
+        MIN_SHAPE_SIZE,
+        1.0,
+        -1.0,
+        0.5,
+    ];
+    match rng.below(4) {
+        0 => specials[rng.below(specials.len())],
+        1 => rng.range(-10.0, 10.0),
+        2 => rng.range(-2e6, 2e6),
+        _ => f32::from_bits(rng.next_u64() as u32),
     }
 }
 
@@ -490,7 +470,7 @@ fn polygon_from_points_returns_the_hull() {
     // triangle of three other points (Carathéodory), exactly, in f64. Clouds with nearly
     // collinear triples or nearly coincident pairs are skipped: the crate welds and drops points
     // within 1e-6 of the extent by design, so there the two definitions may legitimately differ.
-    let mut rng = Rng(0xB0B);
+    let mut rng = SceneRng::new(0xB0B);
     let mut checked = 0;
     let mut too_many = 0;
     while checked < 500 {
@@ -887,15 +867,6 @@ fn toi_at_the_world_limit_is_accepted_and_correct() {
 // time_of_impact: degenerate but valid input
 // ---------------------------------------------------------------------------------------------
 
-/// The earliest `t` with `|p0 + t v| = r` (quadratic formula).
-fn first_root(p0: [f64; 2], vel: [f64; 2], r: f64) -> Option<f64> {
-    let a = vel[0] * vel[0] + vel[1] * vel[1];
-    let b = 2.0 * (p0[0] * vel[0] + p0[1] * vel[1]);
-    let c = p0[0] * p0[0] + p0[1] * p0[1] - r * r;
-    let disc = b * b - 4.0 * a * c;
-    (a > 0.0 && disc >= 0.0).then(|| (-b - disc.sqrt()) / (2.0 * a))
-}
-
 /// Checks a hit of two round bodies (point cores) moving linearly against the quadratic
 /// formula: the fraction lies between the times the surfaces are slop ± slop/4 apart, widened
 /// by `eps` of distance over the relative speed.
@@ -909,8 +880,8 @@ fn assert_round_hit(
 ) {
     assert_eq!(out.state, ToiState::Hit, "{what}: {out:?}");
     let speed = (vel[0] * vel[0] + vel[1] * vel[1]).sqrt();
-    let early = first_root(p0, vel, radii + SLOP + TOL).expect("setup: they meet");
-    let late = first_root(p0, vel, radii + SLOP - TOL).expect("setup: they meet");
+    let early = quadratic_first_root(p0, vel, radii + SLOP + TOL).expect("setup: they meet");
+    let late = quadratic_first_root(p0, vel, radii + SLOP - TOL).expect("setup: they meet");
     let t = out.fraction as f64;
     assert!(
         t >= early - eps / speed && t <= late + eps / speed,
@@ -1157,31 +1128,28 @@ fn coordinates_around_1e5_give_correct_answers() {
 /// Builds a proxy from garbage, through every public constructor: returns `None` when the
 /// constructor (rightly) refuses. Afterwards the public `radius` field may be overwritten with
 /// garbage too, as a caller could.
-fn garbage_proxy(rng: &mut Rng) -> Option<ShapeProxy> {
+fn garbage_proxy(rng: &mut SceneRng) -> Option<ShapeProxy> {
     let proxy = match rng.below(6) {
-        0 => Circle::new(rng.garbage())
+        0 => Circle::new(garbage(rng))
             .ok()
             .map(|c| Shape::from(c).proxy()),
         1 => Capsule::new(
-            v(rng.garbage(), rng.garbage()),
-            v(rng.garbage(), rng.garbage()),
-            rng.garbage(),
+            v(garbage(rng), garbage(rng)),
+            v(garbage(rng), garbage(rng)),
+            garbage(rng),
         )
         .ok()
         .map(|c| Shape::from(c).proxy()),
-        2 => Segment::new(
-            v(rng.garbage(), rng.garbage()),
-            v(rng.garbage(), rng.garbage()),
-        )
-        .ok()
-        .map(|s| Shape::from(s).proxy()),
+        2 => Segment::new(v(garbage(rng), garbage(rng)), v(garbage(rng), garbage(rng)))
+            .ok()
+            .map(|s| Shape::from(s).proxy()),
         3 => {
             let n = rng.below(12);
-            let pts: Vec<Vec2> = (0..n).map(|_| v(rng.garbage(), rng.garbage())).collect();
+            let pts: Vec<Vec2> = (0..n).map(|_| v(garbage(rng), garbage(rng))).collect();
             let poly = if rng.below(2) == 0 {
-                Polygon::from_points(&pts, rng.garbage())
+                Polygon::from_points(&pts, garbage(rng))
             } else {
-                Polygon::from_ccw(&pts, rng.garbage())
+                Polygon::from_ccw(&pts, garbage(rng))
             };
             if let Ok(p) = &poly {
                 // Whatever was accepted is a usable polygon.
@@ -1204,18 +1172,18 @@ fn garbage_proxy(rng: &mut Rng) -> Option<ShapeProxy> {
         }
         _ => {
             let n = rng.below(11);
-            let pts: Vec<Vec2> = (0..n).map(|_| v(rng.garbage(), rng.garbage())).collect();
-            ShapeProxy::new(&pts, rng.garbage()).ok()
+            let pts: Vec<Vec2> = (0..n).map(|_| v(garbage(rng), garbage(rng))).collect();
+            ShapeProxy::new(&pts, garbage(rng)).ok()
         }
     };
     let mut proxy = proxy?;
     if rng.below(8) == 0 {
-        proxy.radius = rng.garbage();
+        proxy.radius = garbage(rng);
     }
     Some(proxy)
 }
 
-fn garbage_sweep(rng: &mut Rng) -> Sweep {
+fn garbage_sweep(rng: &mut SceneRng) -> Sweep {
     if rng.below(3) == 0 {
         // Plausible motion, with the odd garbage field.
         let mut s = Sweep::new(
@@ -1226,13 +1194,13 @@ fn garbage_sweep(rng: &mut Rng) -> Sweep {
             rng.range(-30.0, 30.0),
         );
         if rng.below(2) == 0 {
-            set_field(&mut s, rng.below(8), rng.garbage());
+            set_field(&mut s, rng.below(8), garbage(rng));
         }
         s
     } else {
         let mut s = Sweep::default();
         for field in 0..8 {
-            set_field(&mut s, field, rng.garbage());
+            set_field(&mut s, field, garbage(rng));
         }
         s
     }
@@ -1240,7 +1208,7 @@ fn garbage_sweep(rng: &mut Rng) -> Sweep {
 
 #[test]
 fn fuzz_time_of_impact_never_panics() {
-    let mut rng = Rng(0xF022);
+    let mut rng = SceneRng::new(0xF022);
     let fallback = Shape::from(Circle::new(0.3).unwrap()).proxy();
     let mut states = [0usize; 4];
     let mut panics = Vec::new();
@@ -1255,16 +1223,16 @@ fn fuzz_time_of_impact_never_panics() {
         );
         if rng.below(2) == 0 {
             input.max_fraction = if rng.below(2) == 0 {
-                rng.garbage()
+                garbage(&mut rng)
             } else {
                 rng.range(0.0, 1.0)
             };
         }
         if rng.below(3) == 0 {
-            input.config.linear_slop = rng.garbage();
+            input.config.linear_slop = garbage(&mut rng);
         }
         if rng.below(4) == 0 {
-            input.config.target_separation = Some(rng.garbage());
+            input.config.target_separation = Some(garbage(&mut rng));
         }
         let result = catch_unwind(AssertUnwindSafe(|| time_of_impact(&input)));
         let out = match result {
@@ -1320,12 +1288,12 @@ fn fuzz_time_of_impact_never_panics() {
 
 #[test]
 fn fuzz_shape_distance_never_panics() {
-    let mut rng = Rng(0xD157);
+    let mut rng = SceneRng::new(0xD157);
     let fallback = Shape::from(Polygon::rectangle(0.5, 0.25).unwrap()).proxy();
     for case in 0..4000 {
         let proxy_a = garbage_proxy(&mut rng).unwrap_or(fallback);
         let proxy_b = garbage_proxy(&mut rng).unwrap_or(fallback);
-        let pose = |rng: &mut Rng| {
+        let pose = |rng: &mut SceneRng| {
             if rng.below(2) == 0 {
                 Pose::new(
                     v(rng.range(-5.0, 5.0), rng.range(-5.0, 5.0)),
@@ -1334,10 +1302,10 @@ fn fuzz_shape_distance_never_panics() {
             } else {
                 // Raw garbage, including non-unit and NaN rotations.
                 Pose {
-                    p: v(rng.garbage(), rng.garbage()),
+                    p: v(garbage(rng), garbage(rng)),
                     q: Rot {
-                        c: rng.garbage(),
-                        s: rng.garbage(),
+                        c: garbage(rng),
+                        s: garbage(rng),
                     },
                 }
             }

@@ -8,22 +8,21 @@
 //! other tests use small worlds. It reads and changes nothing, so any difference from the
 //! direct call is a fault of the plugin's passes (gather, candidate lists, batching, write-back).
 
-#[path = "support/level.rs"]
-mod level;
+mod support;
 
 use bevy_ccd::prelude::Resolution;
 
 #[test]
 fn level_steps_match_the_geometry_layer_clamp() {
-    level::check(Resolution::Clamp);
+    support::level::check(Resolution::Clamp);
 }
 
 #[test]
 fn level_steps_match_the_geometry_layer_substep() {
-    level::check(Resolution::SubStep { max_substeps: 4 });
+    support::level::check(Resolution::SubStep { max_substeps: 4 });
 }
 
 #[test]
 fn record_passes_on_the_pool_match_one_thread() {
-    level::check_records();
+    support::level::check_records();
 }

@@ -4,8 +4,7 @@
 //! equal the serial ones and the geometry layer's, bit for bit. The same for the record passes,
 //! which split their bodies over those two workers.
 
-#[path = "support/level.rs"]
-mod level;
+mod support;
 
 use bevy_ccd::prelude::Resolution;
 use bevy_tasks::{ComputeTaskPool, TaskPoolBuilder};
@@ -15,7 +14,7 @@ fn level_steps_match_with_a_pool_of_one_thread() {
     // The only test of this binary, so the pool is this one.
     let pool = ComputeTaskPool::get_or_init(|| TaskPoolBuilder::new().num_threads(1).build());
     assert_eq!(pool.thread_num(), 1);
-    level::check(Resolution::Clamp);
-    level::check(Resolution::SubStep { max_substeps: 4 });
-    level::check_records();
+    support::level::check(Resolution::Clamp);
+    support::level::check(Resolution::SubStep { max_substeps: 4 });
+    support::level::check_records();
 }
