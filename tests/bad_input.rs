@@ -16,6 +16,7 @@ use bevy_ccd::geometry::{
     constants::{LINEAR_SLOP, MAX_POLYGON_VERTICES, MAX_WORLD_COORDINATE, MIN_SHAPE_SIZE},
     shape_distance, time_of_impact,
 };
+use bevy_ccd::prelude::Collider;
 use bevy_ccd::testing::SceneRng;
 use glam::Vec2;
 use support::reference::{SLOP, TOL, quadratic_first_root};
@@ -225,6 +226,93 @@ fn shape_constructors_reject_bad_input_with_the_right_error() {
     for (what, got, expected) in cases {
         assert_eq!(got.err(), Some(expected), "{what}");
     }
+}
+
+#[test]
+fn collider_constructors_reject_bad_sizes() {
+    let nan = f32::NAN;
+    let inf = f32::INFINITY;
+    let v = Vec2::new;
+    let cases: Vec<(&str, Result<Collider, ShapeError>, ShapeError)> = vec![
+        ("circle(0)", Collider::circle(0.0), ShapeError::TooSmall),
+        ("circle(-1)", Collider::circle(-1.0), ShapeError::TooSmall),
+        ("circle(1e-6)", Collider::circle(1e-6), ShapeError::TooSmall),
+        ("circle(NaN)", Collider::circle(nan), ShapeError::NonFinite),
+        ("circle(inf)", Collider::circle(inf), ShapeError::NonFinite),
+        (
+            "rectangle(0, 1)",
+            Collider::rectangle(0.0, 1.0),
+            ShapeError::TooSmall,
+        ),
+        (
+            "rectangle(1, -1)",
+            Collider::rectangle(1.0, -1.0),
+            ShapeError::TooSmall,
+        ),
+        (
+            "rectangle(1, NaN)",
+            Collider::rectangle(1.0, nan),
+            ShapeError::NonFinite,
+        ),
+        (
+            "capsule(0, 0.1)",
+            Collider::capsule(0.0, 0.1),
+            ShapeError::TooSmall,
+        ),
+        (
+            "capsule(0.5, 0)",
+            Collider::capsule(0.5, 0.0),
+            ShapeError::TooSmall,
+        ),
+        (
+            "capsule(inf, 0.1)",
+            Collider::capsule(inf, 0.1),
+            ShapeError::NonFinite,
+        ),
+        (
+            "segment(a, a)",
+            Collider::segment(v(1.0, 1.0), v(1.0, 1.0)),
+            ShapeError::TooSmall,
+        ),
+        (
+            "segment(NaN)",
+            Collider::segment(v(nan, 0.0), v(1.0, 0.0)),
+            ShapeError::NonFinite,
+        ),
+        (
+            "hull(2 points)",
+            Collider::convex_hull(&[v(0.0, 0.0), v(1.0, 0.0)], 0.0),
+            ShapeError::TooFewPoints,
+        ),
+        (
+            "hull(collinear)",
+            Collider::convex_hull(&[v(0.0, 0.0), v(1.0, 0.0), v(2.0, 0.0)], 0.0),
+            ShapeError::Collinear,
+        ),
+        (
+            "hull(radius -1)",
+            Collider::convex_hull(&[v(0.0, 0.0), v(1.0, 0.0), v(0.0, 1.0)], -1.0),
+            ShapeError::TooSmall,
+        ),
+        (
+            "offset(NaN)",
+            Collider::circle(0.1).and_then(|c| c.with_offset(v(nan, 0.0))),
+            ShapeError::NonFinite,
+        ),
+    ];
+    for (name, result, error) in cases {
+        assert_eq!(result.err(), Some(error), "{name}");
+    }
+    let many: Vec<Vec2> = (0..12)
+        .map(|k| {
+            let a = k as f32 * core::f32::consts::TAU / 12.0;
+            v(a.cos(), a.sin())
+        })
+        .collect();
+    assert_eq!(
+        Collider::convex_hull(&many, 0.0).err(),
+        Some(ShapeError::TooManyPoints)
+    );
 }
 
 #[test]
