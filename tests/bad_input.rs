@@ -19,7 +19,7 @@ use bevy_ccd::geometry::{
 use bevy_ccd::prelude::Collider;
 use bevy_ccd::testing::SceneRng;
 use glam::Vec2;
-use support::reference::{SLOP, TOL, quadratic_first_root};
+use support::reference::{P, SLOP, TOL, cross, norm, quadratic_first_root, sub, to_p};
 
 /// f32 rounding allowance (m) at metre scale (a few dozen ulps of 1.2e-7 m, with margin; still
 /// 250 times smaller than the band width of 2.5e-3 m).
@@ -485,10 +485,7 @@ fn polygon_from_ccw_rejects_bad_loops() {
 fn area2(vs: &[Vec2]) -> f64 {
     let n = vs.len();
     (0..n)
-        .map(|i| {
-            let (a, b) = (vs[i], vs[(i + 1) % n]);
-            a.x as f64 * b.y as f64 - a.y as f64 * b.x as f64
-        })
+        .map(|i| cross(to_p(vs[i]), to_p(vs[(i + 1) % n])))
         .sum()
 }
 
@@ -501,9 +498,8 @@ fn assert_ccw_convex(vs: &[Vec2], what: &str) {
     );
     assert!(area2(vs) > 0.0, "{what}: not counter-clockwise");
     for i in 0..n {
-        let (a, b, c) = (vs[i], vs[(i + 1) % n], vs[(i + 2) % n]);
-        let cr = (b.x as f64 - a.x as f64) * (c.y as f64 - b.y as f64)
-            - (b.y as f64 - a.y as f64) * (c.x as f64 - b.x as f64);
+        let (a, b, c) = (to_p(vs[i]), to_p(vs[(i + 1) % n]), to_p(vs[(i + 2) % n]));
+        let cr = cross(sub(b, a), sub(c, b));
         assert!(
             cr > 0.0,
             "{what}: no strict left turn at vertex {}",
@@ -566,12 +562,9 @@ fn polygon_from_points_returns_the_hull() {
         let pts: Vec<Vec2> = (0..n)
             .map(|_| v(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0)))
             .collect();
-        let p64: Vec<[f64; 2]> = pts.iter().map(|p| [p.x as f64, p.y as f64]).collect();
-        let cr = |o: [f64; 2], a: [f64; 2], b: [f64; 2]| {
-            (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
-        };
-        let dist =
-            |a: [f64; 2], b: [f64; 2]| ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)).sqrt();
+        let p64: Vec<P> = pts.iter().map(|p| to_p(*p)).collect();
+        let cr = |o: P, a: P, b: P| cross(sub(a, o), sub(b, o));
+        let dist = |a: P, b: P| norm(sub(a, b));
         let mut degenerate = false;
         for i in 0..n {
             for j in 0..n {
@@ -594,7 +587,7 @@ fn polygon_from_points_returns_the_hull() {
         if degenerate {
             continue;
         }
-        let inside = |p: [f64; 2], a: [f64; 2], b: [f64; 2], c: [f64; 2]| {
+        let inside = |p: P, a: P, b: P, c: P| {
             let (d1, d2, d3) = (cr(a, b, p), cr(b, c, p), cr(c, a, p));
             (d1 >= 0.0 && d2 >= 0.0 && d3 >= 0.0) || (d1 <= 0.0 && d2 <= 0.0 && d3 <= 0.0)
         };
