@@ -1,5 +1,5 @@
 //! What the integration tests share. Each test file includes it with `mod support;` and uses
-//! the parts it needs, so the parts it does not use are not dead code.
+//! the parts it needs; the rest is unused in that test binary, hence the `allow`.
 #![allow(dead_code)]
 
 pub mod app;
