@@ -7,7 +7,7 @@
 //! horizontal or vertical), 50 % boxes (0.5–4 m) and 20 % slopes (the bounds of a ramp,
 //! 3–15 m by 1–8 m). 10,000 queries are the swept bounds of bodies (half size 0.25–1 m) over
 //! one 60 Hz step: 90 % move at up to 20 m/s, 10 % are bullets at 50–300 m/s. Everything comes
-//! from a fixed xorshift seed, so every run times the same scene.
+//! from a fixed seed of the crate's `SceneRng`, so every run times the same scene.
 //!
 //! # What runs
 //!
@@ -33,6 +33,7 @@ use std::hint::black_box;
 use std::time::Duration;
 
 use bevy_ccd::geometry::{Aabb, Bvh, QUERY_GROUP};
+use bevy_ccd::testing::SceneRng;
 use criterion::{Criterion, criterion_group, criterion_main};
 use glam::{Vec2, Vec3A};
 use obvhs::BvhBuildParams;
@@ -45,25 +46,8 @@ use obvhs::ploc::PlocBuilder;
 /// Swept-bound queries per batch.
 const QUERIES: usize = 10_000;
 
-/// xorshift32: a fixed, dependency-free scene generator.
-struct Rng(u32);
-
-impl Rng {
-    fn next_f32(&mut self) -> f32 {
-        let mut x = self.0;
-        x ^= x << 13;
-        x ^= x >> 17;
-        x ^= x << 5;
-        self.0 = x;
-        (x >> 8) as f32 / (1u32 << 24) as f32
-    }
-    fn range(&mut self, lo: f32, hi: f32) -> f32 {
-        lo + (hi - lo) * self.next_f32()
-    }
-}
-
 /// The level's static colliders: walls, boxes and slopes.
-fn level(n: usize, rng: &mut Rng) -> (Vec<(u32, Aabb)>, f32) {
+fn level(n: usize, rng: &mut SceneRng) -> (Vec<(u32, Aabb)>, f32) {
     let side = 10.0 * (n as f32).sqrt();
     let items = (0..n as u32)
         .map(|id| {
@@ -94,7 +78,7 @@ fn level(n: usize, rng: &mut Rng) -> (Vec<(u32, Aabb)>, f32) {
 }
 
 /// Swept bounds of moving bodies over one 60 Hz step.
-fn swept_queries(side: f32, rng: &mut Rng) -> Vec<Aabb> {
+fn swept_queries(side: f32, rng: &mut SceneRng) -> Vec<Aabb> {
     (0..QUERIES)
         .map(|_| {
             let p = Vec2::new(rng.range(0.0, side), rng.range(0.0, side));
@@ -191,7 +175,7 @@ const PRESETS: [(&str, BvhBuildParams); 3] = [
 ];
 
 fn bench_size(c: &mut Criterion, n: usize, label: &str) {
-    let mut rng = Rng(0x9E37_79B9 ^ n as u32);
+    let mut rng = SceneRng::new(n as u64);
     let (items, side) = level(n, &mut rng);
     let queries = swept_queries(side, &mut rng);
     let aabbs: Vec<OAabb> = items.iter().map(|(_, b)| to_3d(b)).collect();

@@ -59,8 +59,13 @@
 //! count per call under `valgrind --tool=callgrind` (each implementation is called through
 //! its own never-inlined `call_*` function).
 
+// The tests' oracle and the reference geometry it scores with; the bench uses part of each.
+#[allow(dead_code)]
 #[path = "../tests/support/oracle.rs"]
 mod oracle;
+#[allow(dead_code)]
+#[path = "../tests/support/reference.rs"]
+mod reference;
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;

@@ -10,11 +10,9 @@
 use std::fmt::Write as _;
 use std::time::Instant;
 
-use bevy_app::FixedUpdate;
 use bevy_ccd::prelude::*;
 use bevy_ccd::testing::{
-    ArenaConfig, Gravity, StepFixed, bodies_outside, deepest_penetration, headless_app,
-    integrate_velocity, spawn_arena,
+    ArenaConfig, StepFixed, arena_app, bodies_outside, deepest_penetration, moving_app,
 };
 use bevy_ecs::prelude::*;
 use bevy_transform::components::Transform;
@@ -43,21 +41,16 @@ fn run_arena(
     resolution: Resolution,
     steps: usize,
 ) -> (Row, Traces) {
-    let mut app = headless_app(DT);
-    app.insert_resource(CcdConfig {
+    let config = CcdConfig {
         resolution,
         ..Default::default()
-    })
-    .insert_resource(Gravity(Vec2::new(0.0, -9.81)))
-    .add_systems(FixedUpdate, integrate_velocity);
-    let arena = spawn_arena(
-        app.world_mut(),
-        &ArenaConfig {
-            ccd,
-            timestep: DT as f32,
-            ..Default::default()
-        },
-    );
+    };
+    let arena = ArenaConfig {
+        ccd,
+        timestep: DT as f32,
+        ..Default::default()
+    };
+    let (mut app, arena) = arena_app(DT, config, Vec2::new(0.0, -9.81), &arena);
     let bounds = arena.interior.expanded(bevy_ccd::geometry::LINEAR_SLOP);
     let traced: Vec<Entity> = arena.bodies.iter().copied().take(6).collect();
     let mut traces = Traces {
@@ -110,12 +103,11 @@ fn run_arena(
 
 /// Catto's figure: a ball falling at 300 m/s toward a 1 cm floor, traced per step.
 fn falling_ball(ccd: bool) -> (Vec<Vec2>, Option<Vec2>) {
-    let mut app = headless_app(DT);
-    app.insert_resource(CcdConfig {
+    let config = CcdConfig {
         resolution: Resolution::Clamp,
         ..Default::default()
-    })
-    .add_systems(FixedUpdate, integrate_velocity);
+    };
+    let mut app = moving_app(DT, config, Vec2::ZERO);
     app.world_mut().spawn((
         Collider::rectangle(3.0, 0.005).expect("valid floor"),
         StaticCollider,

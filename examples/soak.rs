@@ -17,31 +17,22 @@ use bevy_ecs::prelude::*;
 
 use bevy_ccd::geometry::LINEAR_SLOP;
 use bevy_ccd::prelude::*;
-use bevy_ccd::testing::{
-    ArenaConfig, Gravity, Liveness, StepFixed, bodies_outside, deepest_penetration, headless_app,
-    integrate_velocity, spawn_arena,
-};
+use bevy_ccd::testing::{ArenaConfig, Liveness, StepFixed, arena_app, assert_contained};
 
 const DT: f64 = 1.0 / 60.0;
 
 fn soak(label: &str, resolution: Resolution, bodies: usize, steps: usize, seed: u64) {
-    let mut app = headless_app(DT);
-    app.insert_resource(CcdConfig {
+    let config = CcdConfig {
         resolution,
         ..Default::default()
-    })
-    .insert_resource(Gravity(Vec2::new(0.0, -9.81)))
-    .add_systems(bevy_app::FixedUpdate, integrate_velocity);
-    let arena = spawn_arena(
-        app.world_mut(),
-        &ArenaConfig {
-            bodies,
-            timestep: DT as f32,
-            seed,
-            ..Default::default()
-        },
-    );
-    let bounds = arena.interior.expanded(LINEAR_SLOP);
+    };
+    let arena = ArenaConfig {
+        bodies,
+        timestep: DT as f32,
+        seed,
+        ..Default::default()
+    };
+    let (mut app, arena) = arena_app(DT, config, Vec2::new(0.0, -9.81), &arena);
     let (mut impacts, mut substeps, mut failed, mut overlapping) = (0u64, 0u64, 0u64, 0u64);
     let mut worst = 0.0f32;
     let mut step_time = 0.0f64;
@@ -60,18 +51,7 @@ fn soak(label: &str, resolution: Resolution, bodies: usize, steps: usize, seed: 
             failed += toi.error().is_some() as u64;
             overlapping += matches!(toi, CcdOutcome::Overlapping(_)) as u64;
         }
-        let outside = bodies_outside(world, bounds);
-        assert!(
-            outside.is_empty(),
-            "{label}: step {step}: {} bodies left the box: {:?}",
-            outside.len(),
-            &outside[..outside.len().min(10)]
-        );
-        let (depth, pair) = deepest_penetration(world);
-        assert!(
-            depth <= LINEAR_SLOP,
-            "{label}: step {step}: {pair:?} overlap {depth} m, deeper than the slop"
-        );
+        let depth = assert_contained(world, arena.interior, &format!("{label}: step {step}"));
         worst = worst.max(depth);
         if (step + 1) % 1000 == 0 {
             eprintln!(

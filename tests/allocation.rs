@@ -11,7 +11,7 @@ use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 use bevy_app::{FixedFirst, FixedPostUpdate, FixedUpdate};
 use bevy_ccd::prelude::*;
-use bevy_ccd::testing::{ArenaConfig, Gravity, headless_app, integrate_velocity, spawn_arena};
+use bevy_ccd::testing::{ArenaConfig, arena_app};
 use bevy_ecs::message::Messages;
 use bevy_ecs::schedule::SingleThreadedExecutor;
 
@@ -51,14 +51,17 @@ const DT: f64 = 1.0 / 60.0;
 
 #[test]
 fn steady_state_steps_allocate_nothing() {
-    let mut app = headless_app(DT);
-    app.insert_resource(CcdConfig {
+    let config = CcdConfig {
         resolution: Resolution::SubStep { max_substeps: 4 },
         parallel: false,
         ..Default::default()
-    });
-    app.insert_resource(Gravity(Vec2::new(0.0, -9.81)));
-    app.add_systems(FixedUpdate, integrate_velocity);
+    };
+    let arena = ArenaConfig {
+        bodies: 1000,
+        timestep: DT as f32,
+        ..Default::default()
+    };
+    let (mut app, _) = arena_app(DT, config, Vec2::new(0.0, -9.81), &arena);
     app.edit_schedule(FixedFirst, |s| {
         s.set_executor(SingleThreadedExecutor::new());
     });
@@ -68,14 +71,6 @@ fn steady_state_steps_allocate_nothing() {
     app.edit_schedule(FixedPostUpdate, |s| {
         s.set_executor(SingleThreadedExecutor::new());
     });
-    spawn_arena(
-        app.world_mut(),
-        &ArenaConfig {
-            bodies: 1000,
-            timestep: DT as f32,
-            ..Default::default()
-        },
-    );
     // A few whole updates set the clocks going (the generic `Time` then holds one step's
     // delta, which the user's `integrate_velocity` reads); after that the fixed-step
     // schedules are run directly, as `App::update` runs them, so that the count is the

@@ -5,8 +5,7 @@
 
 use bevy_ccd::prelude::*;
 use bevy_ccd::testing::{
-    ArenaConfig, Gravity, Liveness, StepFixed, bodies_outside, deepest_penetration, headless_app,
-    integrate_velocity, spawn_arena,
+    ArenaConfig, Liveness, StepFixed, arena_app, bodies_outside, deepest_penetration,
 };
 
 const STEPS: usize = 1000;
@@ -22,19 +21,16 @@ struct RunStats {
 }
 
 fn run(resolution: Resolution, ccd: bool, steps: usize, check: bool) -> RunStats {
-    let mut app = headless_app(DT);
-    app.insert_resource(CcdConfig {
+    let config = CcdConfig {
         resolution,
         ..Default::default()
-    });
-    app.insert_resource(Gravity(Vec2::new(0.0, -9.81)));
-    app.add_systems(bevy_app::FixedUpdate, integrate_velocity);
-    let config = ArenaConfig {
+    };
+    let arena = ArenaConfig {
         ccd,
         timestep: DT as f32,
         ..Default::default()
     };
-    let arena = spawn_arena(app.world_mut(), &config);
+    let (mut app, arena) = arena_app(DT, config, Vec2::new(0.0, -9.81), &arena);
     // Membership: a body is inside when its bounds are inside the box, with the slop allowed.
     let bounds = arena.interior.expanded(bevy_ccd::geometry::LINEAR_SLOP);
     let mut stats = RunStats {

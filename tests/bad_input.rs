@@ -6,6 +6,8 @@
 //! Expected answers are derived here (closed forms or an `f64` evaluation of the analytic
 //! motion), never copied from the crate's output.
 
+mod support;
+
 use std::panic::{AssertUnwindSafe, catch_unwind};
 
 use bevy_ccd::geometry::{
@@ -14,10 +16,11 @@ use bevy_ccd::geometry::{
     constants::{LINEAR_SLOP, MAX_POLYGON_VERTICES, MAX_WORLD_COORDINATE, MIN_SHAPE_SIZE},
     shape_distance, time_of_impact,
 };
+use bevy_ccd::prelude::Collider;
+use bevy_ccd::testing::SceneRng;
 use glam::Vec2;
+use support::reference::{P, SLOP, TOL, cross, norm, quadratic_first_root, sub, to_p};
 
-const SLOP: f64 = LINEAR_SLOP as f64;
-const TOL: f64 = 0.25 * SLOP;
 /// f32 rounding allowance (m) at metre scale (a few dozen ulps of 1.2e-7 m, with margin; still
 /// 250 times smaller than the band width of 2.5e-3 m).
 const EPS: f64 = 1e-5;
@@ -26,62 +29,40 @@ fn v(x: f32, y: f32) -> Vec2 {
     Vec2::new(x, y)
 }
 
-/// A small deterministic generator (SplitMix64) so the fuzz loops are reproducible.
-struct Rng(u64);
-
-impl Rng {
-    fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    /// Uniform in [0, 1).
-    fn unit(&mut self) -> f64 {
-        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
-    }
-    fn range(&mut self, lo: f64, hi: f64) -> f32 {
-        (lo + (hi - lo) * self.unit()) as f32
-    }
-    fn below(&mut self, n: usize) -> usize {
-        (self.next_u64() % n as u64) as usize
-    }
-    /// A value from a distribution heavy in trouble: NaN, infinities, zeros, subnormals, the
-    /// largest floats, values at and around the world limit, tiny and ordinary numbers.
-    fn garbage(&mut self) -> f32 {
-        let above_limit = f32::from_bits(MAX_WORLD_COORDINATE.to_bits() + 1);
-        let specials = [
-            f32::NAN,
-            -f32::NAN,
-            f32::INFINITY,
-            f32::NEG_INFINITY,
-            0.0,
-            -0.0,
-            f32::MAX,
-            f32::MIN,
-            f32::MIN_POSITIVE,
-            -f32::MIN_POSITIVE,
-            f32::from_bits(1),            // smallest subnormal
-            -f32::from_bits(0x0007_ffff), // a negative subnormal
-            1e-40,
-            f32::EPSILON,
-            1e30,
-            -1e30,
-            MAX_WORLD_COORDINATE,
-            -MAX_WORLD_COORDINATE,
-            above_limit,
-            MIN_SHAPE_SIZE,
-            1.0,
-            -1.0,
-            0.5,
-        ];
-        match self.below(4) {
-            0 => specials[self.below(specials.len())],
-            1 => self.range(-10.0, 10.0),
-            2 => self.range(-2e6, 2e6),
-            _ => f32::from_bits(self.next_u64() as u32),
-        }
+/// A value from a distribution heavy in trouble: NaN, infinities, zeros, subnormals, the
+/// largest floats, values at and around the world limit, tiny and ordinary numbers.
+fn garbage(rng: &mut SceneRng) -> f32 {
+    let above_limit = f32::from_bits(MAX_WORLD_COORDINATE.to_bits() + 1);
+    let specials = [
+        f32::NAN,
+        -f32::NAN,
+        f32::INFINITY,
+        f32::NEG_INFINITY,
+        0.0,
+        -0.0,
+        f32::MAX,
+        f32::MIN,
+        f32::MIN_POSITIVE,
+        -f32::MIN_POSITIVE,
+        f32::from_bits(1),            // smallest subnormal
+        -f32::from_bits(0x0007_ffff), // a negative subnormal
+        1e-40,
+        f32::EPSILON,
+        1e30,
+        -1e30,
+        MAX_WORLD_COORDINATE,
+        -MAX_WORLD_COORDINATE,
+        above_limit,
+        MIN_SHAPE_SIZE,
+        1.0,
+        -1.0,
+        0.5,
+    ];
+    match rng.below(4) {
+        0 => specials[rng.below(specials.len())],
+        1 => rng.range(-10.0, 10.0),
+        2 => rng.range(-2e6, 2e6),
+        _ => f32::from_bits(rng.next_u64() as u32),
     }
 }
 
@@ -245,6 +226,93 @@ fn shape_constructors_reject_bad_input_with_the_right_error() {
     for (what, got, expected) in cases {
         assert_eq!(got.err(), Some(expected), "{what}");
     }
+}
+
+#[test]
+fn collider_constructors_reject_bad_sizes() {
+    let nan = f32::NAN;
+    let inf = f32::INFINITY;
+    let v = Vec2::new;
+    let cases: Vec<(&str, Result<Collider, ShapeError>, ShapeError)> = vec![
+        ("circle(0)", Collider::circle(0.0), ShapeError::TooSmall),
+        ("circle(-1)", Collider::circle(-1.0), ShapeError::TooSmall),
+        ("circle(1e-6)", Collider::circle(1e-6), ShapeError::TooSmall),
+        ("circle(NaN)", Collider::circle(nan), ShapeError::NonFinite),
+        ("circle(inf)", Collider::circle(inf), ShapeError::NonFinite),
+        (
+            "rectangle(0, 1)",
+            Collider::rectangle(0.0, 1.0),
+            ShapeError::TooSmall,
+        ),
+        (
+            "rectangle(1, -1)",
+            Collider::rectangle(1.0, -1.0),
+            ShapeError::TooSmall,
+        ),
+        (
+            "rectangle(1, NaN)",
+            Collider::rectangle(1.0, nan),
+            ShapeError::NonFinite,
+        ),
+        (
+            "capsule(0, 0.1)",
+            Collider::capsule(0.0, 0.1),
+            ShapeError::TooSmall,
+        ),
+        (
+            "capsule(0.5, 0)",
+            Collider::capsule(0.5, 0.0),
+            ShapeError::TooSmall,
+        ),
+        (
+            "capsule(inf, 0.1)",
+            Collider::capsule(inf, 0.1),
+            ShapeError::NonFinite,
+        ),
+        (
+            "segment(a, a)",
+            Collider::segment(v(1.0, 1.0), v(1.0, 1.0)),
+            ShapeError::TooSmall,
+        ),
+        (
+            "segment(NaN)",
+            Collider::segment(v(nan, 0.0), v(1.0, 0.0)),
+            ShapeError::NonFinite,
+        ),
+        (
+            "hull(2 points)",
+            Collider::convex_hull(&[v(0.0, 0.0), v(1.0, 0.0)], 0.0),
+            ShapeError::TooFewPoints,
+        ),
+        (
+            "hull(collinear)",
+            Collider::convex_hull(&[v(0.0, 0.0), v(1.0, 0.0), v(2.0, 0.0)], 0.0),
+            ShapeError::Collinear,
+        ),
+        (
+            "hull(radius -1)",
+            Collider::convex_hull(&[v(0.0, 0.0), v(1.0, 0.0), v(0.0, 1.0)], -1.0),
+            ShapeError::TooSmall,
+        ),
+        (
+            "offset(NaN)",
+            Collider::circle(0.1).and_then(|c| c.with_offset(v(nan, 0.0))),
+            ShapeError::NonFinite,
+        ),
+    ];
+    for (name, result, error) in cases {
+        assert_eq!(result.err(), Some(error), "{name}");
+    }
+    let many: Vec<Vec2> = (0..12)
+        .map(|k| {
+            let a = k as f32 * core::f32::consts::TAU / 12.0;
+            v(a.cos(), a.sin())
+        })
+        .collect();
+    assert_eq!(
+        Collider::convex_hull(&many, 0.0).err(),
+        Some(ShapeError::TooManyPoints)
+    );
 }
 
 #[test]
@@ -417,10 +485,7 @@ fn polygon_from_ccw_rejects_bad_loops() {
 fn area2(vs: &[Vec2]) -> f64 {
     let n = vs.len();
     (0..n)
-        .map(|i| {
-            let (a, b) = (vs[i], vs[(i + 1) % n]);
-            a.x as f64 * b.y as f64 - a.y as f64 * b.x as f64
-        })
+        .map(|i| cross(to_p(vs[i]), to_p(vs[(i + 1) % n])))
         .sum()
 }
 
@@ -433,9 +498,8 @@ fn assert_ccw_convex(vs: &[Vec2], what: &str) {
     );
     assert!(area2(vs) > 0.0, "{what}: not counter-clockwise");
     for i in 0..n {
-        let (a, b, c) = (vs[i], vs[(i + 1) % n], vs[(i + 2) % n]);
-        let cr = (b.x as f64 - a.x as f64) * (c.y as f64 - b.y as f64)
-            - (b.y as f64 - a.y as f64) * (c.x as f64 - b.x as f64);
+        let (a, b, c) = (to_p(vs[i]), to_p(vs[(i + 1) % n]), to_p(vs[(i + 2) % n]));
+        let cr = cross(sub(b, a), sub(c, b));
         assert!(
             cr > 0.0,
             "{what}: no strict left turn at vertex {}",
@@ -490,7 +554,7 @@ fn polygon_from_points_returns_the_hull() {
     // triangle of three other points (Carathéodory), exactly, in f64. Clouds with nearly
     // collinear triples or nearly coincident pairs are skipped: the crate welds and drops points
     // within 1e-6 of the extent by design, so there the two definitions may legitimately differ.
-    let mut rng = Rng(0xB0B);
+    let mut rng = SceneRng::new(0xB0B);
     let mut checked = 0;
     let mut too_many = 0;
     while checked < 500 {
@@ -498,12 +562,9 @@ fn polygon_from_points_returns_the_hull() {
         let pts: Vec<Vec2> = (0..n)
             .map(|_| v(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0)))
             .collect();
-        let p64: Vec<[f64; 2]> = pts.iter().map(|p| [p.x as f64, p.y as f64]).collect();
-        let cr = |o: [f64; 2], a: [f64; 2], b: [f64; 2]| {
-            (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
-        };
-        let dist =
-            |a: [f64; 2], b: [f64; 2]| ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)).sqrt();
+        let p64: Vec<P> = pts.iter().map(|p| to_p(*p)).collect();
+        let cr = |o: P, a: P, b: P| cross(sub(a, o), sub(b, o));
+        let dist = |a: P, b: P| norm(sub(a, b));
         let mut degenerate = false;
         for i in 0..n {
             for j in 0..n {
@@ -526,7 +587,7 @@ fn polygon_from_points_returns_the_hull() {
         if degenerate {
             continue;
         }
-        let inside = |p: [f64; 2], a: [f64; 2], b: [f64; 2], c: [f64; 2]| {
+        let inside = |p: P, a: P, b: P, c: P| {
             let (d1, d2, d3) = (cr(a, b, p), cr(b, c, p), cr(c, a, p));
             (d1 >= 0.0 && d2 >= 0.0 && d3 >= 0.0) || (d1 <= 0.0 && d2 <= 0.0 && d3 <= 0.0)
         };
@@ -887,15 +948,6 @@ fn toi_at_the_world_limit_is_accepted_and_correct() {
 // time_of_impact: degenerate but valid input
 // ---------------------------------------------------------------------------------------------
 
-/// The earliest `t` with `|p0 + t v| = r` (quadratic formula).
-fn first_root(p0: [f64; 2], vel: [f64; 2], r: f64) -> Option<f64> {
-    let a = vel[0] * vel[0] + vel[1] * vel[1];
-    let b = 2.0 * (p0[0] * vel[0] + p0[1] * vel[1]);
-    let c = p0[0] * p0[0] + p0[1] * p0[1] - r * r;
-    let disc = b * b - 4.0 * a * c;
-    (a > 0.0 && disc >= 0.0).then(|| (-b - disc.sqrt()) / (2.0 * a))
-}
-
 /// Checks a hit of two round bodies (point cores) moving linearly against the quadratic
 /// formula: the fraction lies between the times the surfaces are slop ± slop/4 apart, widened
 /// by `eps` of distance over the relative speed.
@@ -909,8 +961,8 @@ fn assert_round_hit(
 ) {
     assert_eq!(out.state, ToiState::Hit, "{what}: {out:?}");
     let speed = (vel[0] * vel[0] + vel[1] * vel[1]).sqrt();
-    let early = first_root(p0, vel, radii + SLOP + TOL).expect("setup: they meet");
-    let late = first_root(p0, vel, radii + SLOP - TOL).expect("setup: they meet");
+    let early = quadratic_first_root(p0, vel, radii + SLOP + TOL).expect("setup: they meet");
+    let late = quadratic_first_root(p0, vel, radii + SLOP - TOL).expect("setup: they meet");
     let t = out.fraction as f64;
     assert!(
         t >= early - eps / speed && t <= late + eps / speed,
@@ -1157,31 +1209,28 @@ fn coordinates_around_1e5_give_correct_answers() {
 /// Builds a proxy from garbage, through every public constructor: returns `None` when the
 /// constructor (rightly) refuses. Afterwards the public `radius` field may be overwritten with
 /// garbage too, as a caller could.
-fn garbage_proxy(rng: &mut Rng) -> Option<ShapeProxy> {
+fn garbage_proxy(rng: &mut SceneRng) -> Option<ShapeProxy> {
     let proxy = match rng.below(6) {
-        0 => Circle::new(rng.garbage())
+        0 => Circle::new(garbage(rng))
             .ok()
             .map(|c| Shape::from(c).proxy()),
         1 => Capsule::new(
-            v(rng.garbage(), rng.garbage()),
-            v(rng.garbage(), rng.garbage()),
-            rng.garbage(),
+            v(garbage(rng), garbage(rng)),
+            v(garbage(rng), garbage(rng)),
+            garbage(rng),
         )
         .ok()
         .map(|c| Shape::from(c).proxy()),
-        2 => Segment::new(
-            v(rng.garbage(), rng.garbage()),
-            v(rng.garbage(), rng.garbage()),
-        )
-        .ok()
-        .map(|s| Shape::from(s).proxy()),
+        2 => Segment::new(v(garbage(rng), garbage(rng)), v(garbage(rng), garbage(rng)))
+            .ok()
+            .map(|s| Shape::from(s).proxy()),
         3 => {
             let n = rng.below(12);
-            let pts: Vec<Vec2> = (0..n).map(|_| v(rng.garbage(), rng.garbage())).collect();
+            let pts: Vec<Vec2> = (0..n).map(|_| v(garbage(rng), garbage(rng))).collect();
             let poly = if rng.below(2) == 0 {
-                Polygon::from_points(&pts, rng.garbage())
+                Polygon::from_points(&pts, garbage(rng))
             } else {
-                Polygon::from_ccw(&pts, rng.garbage())
+                Polygon::from_ccw(&pts, garbage(rng))
             };
             if let Ok(p) = &poly {
                 // Whatever was accepted is a usable polygon.
@@ -1204,18 +1253,18 @@ fn garbage_proxy(rng: &mut Rng) -> Option<ShapeProxy> {
         }
         _ => {
             let n = rng.below(11);
-            let pts: Vec<Vec2> = (0..n).map(|_| v(rng.garbage(), rng.garbage())).collect();
-            ShapeProxy::new(&pts, rng.garbage()).ok()
+            let pts: Vec<Vec2> = (0..n).map(|_| v(garbage(rng), garbage(rng))).collect();
+            ShapeProxy::new(&pts, garbage(rng)).ok()
         }
     };
     let mut proxy = proxy?;
     if rng.below(8) == 0 {
-        proxy.radius = rng.garbage();
+        proxy.radius = garbage(rng);
     }
     Some(proxy)
 }
 
-fn garbage_sweep(rng: &mut Rng) -> Sweep {
+fn garbage_sweep(rng: &mut SceneRng) -> Sweep {
     if rng.below(3) == 0 {
         // Plausible motion, with the odd garbage field.
         let mut s = Sweep::new(
@@ -1226,13 +1275,13 @@ fn garbage_sweep(rng: &mut Rng) -> Sweep {
             rng.range(-30.0, 30.0),
         );
         if rng.below(2) == 0 {
-            set_field(&mut s, rng.below(8), rng.garbage());
+            set_field(&mut s, rng.below(8), garbage(rng));
         }
         s
     } else {
         let mut s = Sweep::default();
         for field in 0..8 {
-            set_field(&mut s, field, rng.garbage());
+            set_field(&mut s, field, garbage(rng));
         }
         s
     }
@@ -1240,7 +1289,7 @@ fn garbage_sweep(rng: &mut Rng) -> Sweep {
 
 #[test]
 fn fuzz_time_of_impact_never_panics() {
-    let mut rng = Rng(0xF022);
+    let mut rng = SceneRng::new(0xF022);
     let fallback = Shape::from(Circle::new(0.3).unwrap()).proxy();
     let mut states = [0usize; 4];
     let mut panics = Vec::new();
@@ -1255,16 +1304,16 @@ fn fuzz_time_of_impact_never_panics() {
         );
         if rng.below(2) == 0 {
             input.max_fraction = if rng.below(2) == 0 {
-                rng.garbage()
+                garbage(&mut rng)
             } else {
                 rng.range(0.0, 1.0)
             };
         }
         if rng.below(3) == 0 {
-            input.config.linear_slop = rng.garbage();
+            input.config.linear_slop = garbage(&mut rng);
         }
         if rng.below(4) == 0 {
-            input.config.target_separation = Some(rng.garbage());
+            input.config.target_separation = Some(garbage(&mut rng));
         }
         let result = catch_unwind(AssertUnwindSafe(|| time_of_impact(&input)));
         let out = match result {
@@ -1320,12 +1369,12 @@ fn fuzz_time_of_impact_never_panics() {
 
 #[test]
 fn fuzz_shape_distance_never_panics() {
-    let mut rng = Rng(0xD157);
+    let mut rng = SceneRng::new(0xD157);
     let fallback = Shape::from(Polygon::rectangle(0.5, 0.25).unwrap()).proxy();
     for case in 0..4000 {
         let proxy_a = garbage_proxy(&mut rng).unwrap_or(fallback);
         let proxy_b = garbage_proxy(&mut rng).unwrap_or(fallback);
-        let pose = |rng: &mut Rng| {
+        let pose = |rng: &mut SceneRng| {
             if rng.below(2) == 0 {
                 Pose::new(
                     v(rng.range(-5.0, 5.0), rng.range(-5.0, 5.0)),
@@ -1334,10 +1383,10 @@ fn fuzz_shape_distance_never_panics() {
             } else {
                 // Raw garbage, including non-unit and NaN rotations.
                 Pose {
-                    p: v(rng.garbage(), rng.garbage()),
+                    p: v(garbage(rng), garbage(rng)),
                     q: Rot {
-                        c: rng.garbage(),
-                        s: rng.garbage(),
+                        c: garbage(rng),
+                        s: garbage(rng),
                     },
                 }
             }

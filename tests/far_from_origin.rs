@@ -16,8 +16,8 @@ use bevy_ccd::geometry::{
 };
 use bevy_ccd::prelude::*;
 use bevy_ccd::testing::{
-    ArenaConfig, Gravity, StepFixed, bodies_outside, deepest_penetration, headless_app,
-    integrate_velocity, spawn_arena,
+    ArenaConfig, StepFixed, arena_app, bodies_outside, deepest_penetration, headless_app,
+    moving_app,
 };
 use bevy_transform::components::Transform;
 
@@ -69,15 +69,11 @@ struct Outcome {
 /// The arena with its outer wall faces `margin` inside the limit on the +x and +y sides, run
 /// for `steps` steps.
 fn shifted_arena(resolution: Resolution, margin: f32, steps: usize) -> Outcome {
-    let mut app = headless_app(DT);
     let config = CcdConfig {
         resolution,
         ..Default::default()
     };
     let limit = max_world_coordinate(config.linear_slop);
-    app.insert_resource(config);
-    app.insert_resource(Gravity(Vec2::new(0.0, -9.81)));
-    app.add_systems(bevy_app::FixedUpdate, integrate_velocity);
     let mut arena = ArenaConfig {
         bodies: 500,
         timestep: DT as f32,
@@ -85,7 +81,7 @@ fn shifted_arena(resolution: Resolution, margin: f32, steps: usize) -> Outcome {
     };
     let reach = arena.half_extent + 2.0 * arena.wall_half_thickness;
     arena.offset = Vec2::splat(limit - reach - margin);
-    let spawned = spawn_arena(app.world_mut(), &arena);
+    let (mut app, spawned) = arena_app(DT, config, Vec2::new(0.0, -9.81), &arena);
     let bounds = spawned.interior.expanded(LINEAR_SLOP);
     let mut out = Outcome {
         most_outside: 0,
@@ -151,9 +147,7 @@ fn arena_just_inside_the_limit_substep() {
 /// by more than the slop.
 #[test]
 fn balls_resting_on_a_large_floor_at_the_limit() {
-    let mut app = headless_app(DT);
-    app.insert_resource(Gravity(Vec2::new(0.0, -9.81)));
-    app.add_systems(bevy_app::FixedUpdate, integrate_velocity);
+    let mut app = moving_app(DT, CcdConfig::default(), Vec2::new(0.0, -9.81));
     let limit = max_world_coordinate(LINEAR_SLOP);
     let (half_width, half_height) = (20.0, 0.5);
     let floor = Vec2::new(limit - half_width - 0.01, limit - 5.0 - half_height);
@@ -252,8 +246,7 @@ fn body_reaching_past_the_limit_is_refused_and_left_alone() {
 /// the centre, the disc would be used with coordinates the limit does not cover.
 #[test]
 fn static_reaching_past_the_limit_is_ignored() {
-    let mut app = headless_app(DT);
-    app.add_systems(bevy_app::FixedUpdate, integrate_velocity);
+    let mut app = moving_app(DT, CcdConfig::default(), Vec2::ZERO);
     let limit = max_world_coordinate(LINEAR_SLOP);
     // Centre at -limit / 2, radius 0.75 limit: the top at +limit / 4, the bottom past -limit.
     let radius = 0.75 * limit;
@@ -290,8 +283,7 @@ fn static_reaching_past_the_limit_is_ignored() {
 /// default slop (1,024 m) is used once the slop is doubled (2,048 m).
 #[test]
 fn statics_follow_a_change_of_slop() {
-    let mut app = headless_app(DT);
-    app.add_systems(bevy_app::FixedUpdate, integrate_velocity);
+    let mut app = moving_app(DT, CcdConfig::default(), Vec2::ZERO);
     let x = 1500.0;
     app.world_mut().spawn((
         Collider::rectangle(1.0, 0.5).unwrap(),

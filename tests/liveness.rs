@@ -9,8 +9,7 @@
 use bevy_ccd::geometry::LINEAR_SLOP;
 use bevy_ccd::prelude::*;
 use bevy_ccd::testing::{
-    ArenaConfig, Gravity, Liveness, StepFixed, bodies_outside, deepest_penetration, headless_app,
-    integrate_velocity, spawn_arena,
+    ArenaConfig, Liveness, StepFixed, arena_app, assert_contained, moving_app,
 };
 use bevy_transform::prelude::Transform;
 
@@ -24,30 +23,18 @@ fn arena_liveness(
     config: ArenaConfig,
     steps: usize,
 ) -> Vec<(bevy_ecs::entity::Entity, u32)> {
-    let mut app = headless_app(DT);
-    app.insert_resource(CcdConfig {
+    let ccd = CcdConfig {
         resolution,
         ..Default::default()
-    })
-    .insert_resource(Gravity(Vec2::new(0.0, -gravity)))
-    .add_systems(bevy_app::FixedUpdate, integrate_velocity);
-    let arena = spawn_arena(app.world_mut(), &config);
-    let bounds = arena.interior.expanded(LINEAR_SLOP);
+    };
+    let (mut app, arena) = arena_app(DT, ccd, Vec2::new(0.0, -gravity), &config);
     let mut liveness = Liveness::default();
     for step in 0..steps {
         app.step_fixed(1);
         liveness.observe(app.world_mut());
         if step % 50 == 49 || step + 1 == steps {
-            let world = app.world_mut();
-            assert!(
-                bodies_outside(world, bounds).is_empty(),
-                "{resolution:?}: step {step}: escaped"
-            );
-            let (depth, pair) = deepest_penetration(world);
-            assert!(
-                depth <= LINEAR_SLOP,
-                "{resolution:?}: step {step}: {pair:?} {depth} m deep"
-            );
+            let what = format!("{resolution:?}: step {step}");
+            assert_contained(app.world_mut(), arena.interior, &what);
         }
     }
     liveness.frozen()
@@ -117,13 +104,11 @@ fn resting_bodies_report_no_approaching_velocity() {
             ("ball", Collider::circle(0.25).unwrap()),
             ("rod", Collider::rectangle(0.5, 0.005).unwrap()),
         ] {
-            let mut app = headless_app(DT);
-            app.insert_resource(CcdConfig {
+            let config = CcdConfig {
                 resolution,
                 ..Default::default()
-            })
-            .insert_resource(Gravity(Vec2::new(0.0, -9.81)))
-            .add_systems(bevy_app::FixedUpdate, integrate_velocity);
+            };
+            let mut app = moving_app(DT, config, Vec2::new(0.0, -9.81));
             app.world_mut().spawn((
                 Collider::rectangle(20.0, 0.5).unwrap(),
                 StaticCollider,

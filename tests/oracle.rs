@@ -1,13 +1,12 @@
 //! Every shared oracle case through `time_of_impact`: zero misses, late hits, ghost hits and
 //! failures, and every hit within the tolerance band of the target separation.
 
-#[path = "support/oracle.rs"]
-mod oracle;
+mod support;
 
 use std::collections::BTreeMap;
 
 use bevy_ccd::geometry::{ToiState, time_of_impact};
-use oracle::{EPS, SLOP, Verdict, load_cases, score};
+use support::oracle::{EPS, SLOP, Verdict, load_cases, score};
 
 #[test]
 fn oracle_cases_all_correct() {

@@ -12,19 +12,18 @@
 //!   `sweep.rs`: the centre of mass moves linearly and the angle changes linearly).
 //! * `EPS` is the allowance for `f32` rounding inside the crate (see its definition).
 
+mod support;
+
 use std::f64::consts::PI;
 
 use bevy_ccd::geometry::{
-    Circle, Polygon, Segment, Shape, ShapeProxy, Sweep, ToiConfig, ToiInput, ToiOutput, ToiState,
-    constants::{LINEAR_SLOP, separation_tolerance, target_separation},
+    Circle, LINEAR_SLOP, Polygon, Segment, Shape, ShapeProxy, Sweep, ToiInput, ToiOutput, ToiState,
     time_of_impact,
 };
+use bevy_ccd::testing::SceneRng;
 use glam::Vec2;
+use support::reference::{SLOP, TOL, first_crossing, quadratic_first_root, world_point};
 
-/// The default slop (m), in `f64`.
-const SLOP: f64 = LINEAR_SLOP as f64;
-/// Half-width of the hit band (m): `slop / 4`.
-const TOL: f64 = 0.25 * SLOP;
 /// Allowance (m) for `f32` rounding in the crate at metre scale: the crate evaluates poses and
 /// distances in `f32`, whose unit in the last place is 1.2e-7 m at 1 m; a pose and a GJK
 /// distance take a few dozen operations, so errors stay below ~1e-6 m. 1e-5 m is ten times that
@@ -34,47 +33,6 @@ const EPS: f64 = 1e-5;
 
 fn v2(x: f64, y: f64) -> Vec2 {
     Vec2::new(x as f32, y as f32)
-}
-
-/// Sanity check of the constants these tests rely on: the contract is `target = slop`,
-/// `tolerance = slop / 4`.
-#[test]
-fn band_constants_are_the_documented_ones() {
-    assert_eq!(target_separation(LINEAR_SLOP), LINEAR_SLOP);
-    assert_eq!(separation_tolerance(LINEAR_SLOP), 0.25 * LINEAR_SLOP);
-    assert_eq!(ToiConfig::default().linear_slop, LINEAR_SLOP);
-}
-
-/// The first `t` in `[0, t_end]` where `f(t) <= level`, found by dense sampling (`n` steps)
-/// then bisection to 1e-13. `None` when no sample reaches the level.
-///
-/// Dense sampling can only miss a dip between two samples. Every function used here is the
-/// minimum of smooth pieces whose second derivative `K` is at most ~360 m per step² (the rod
-/// spinning three turns: (6 pi)² × 1 m), and such a function lies at most `K Δt² / 8` below
-/// the chord of its samples: with `n = 20_000` on the unit step that is ~1e-7 m, far inside
-/// `EPS`.
-fn first_crossing(f: &dyn Fn(f64) -> f64, level: f64, t_end: f64, n: usize) -> Option<f64> {
-    if f(0.0) <= level {
-        return Some(0.0);
-    }
-    let mut prev = 0.0;
-    for i in 1..=n {
-        let t = t_end * i as f64 / n as f64;
-        if f(t) <= level {
-            let (mut lo, mut hi) = (prev, t);
-            while hi - lo > 1e-13 {
-                let m = 0.5 * (lo + hi);
-                if f(m) <= level {
-                    hi = m;
-                } else {
-                    lo = m;
-                }
-            }
-            return Some(hi);
-        }
-        prev = t;
-    }
-    None
 }
 
 /// Asserts that `out` is a hit whose fraction lies in the window the contract allows:
@@ -93,6 +51,9 @@ fn assert_hit_in_window(
         ToiState::Hit,
         "{what}: expected a hit, got {out:?}"
     );
+    // Every `d` used here is the minimum of smooth pieces whose second derivative is at most
+    // ~360 m per step² (the rod spinning three turns: (6 pi)² × 1 m), so 20,000 samples of the
+    // unit step miss a dip by at most ~1e-7 m, far inside `EPS`.
     let t_enter = first_crossing(d, SLOP + TOL + eps, 1.0, 20_000)
         .unwrap_or_else(|| panic!("{what}: test setup: the distance never enters the band"));
     let t_deep = first_crossing(d, SLOP - TOL - eps, 1.0, 20_000).unwrap_or(1.0);
@@ -118,34 +79,9 @@ fn assert_hit_in_window(
     (t_enter, t_deep)
 }
 
-/// World position in `f64` of a body-local point under the angle model.
-fn world(sweep: &Sweep, local: Vec2, t: f64) -> [f64; 2] {
-    let c = [
-        sweep.c0.x as f64 + t * (sweep.c1.x as f64 - sweep.c0.x as f64),
-        sweep.c0.y as f64 + t * (sweep.c1.y as f64 - sweep.c0.y as f64),
-    ];
-    let a = sweep.a0 as f64 + t * (sweep.a1 as f64 - sweep.a0 as f64);
-    let (s, co) = a.sin_cos();
-    let x = local.x as f64 - sweep.local_center.x as f64;
-    let y = local.y as f64 - sweep.local_center.y as f64;
-    [c[0] + co * x - s * y, c[1] + s * x + co * y]
-}
-
 // ---------------------------------------------------------------------------------------------
 // Circles
 // ---------------------------------------------------------------------------------------------
-
-/// The earliest `t` with `|p0 + t v| = r`, from the quadratic formula, or `None`.
-fn quadratic_first_root(p0: [f64; 2], v: [f64; 2], r: f64) -> Option<f64> {
-    let a = v[0] * v[0] + v[1] * v[1];
-    let b = 2.0 * (p0[0] * v[0] + p0[1] * v[1]);
-    let c = p0[0] * p0[0] + p0[1] * p0[1] - r * r;
-    let disc = b * b - 4.0 * a * c;
-    if a == 0.0 || disc < 0.0 {
-        return None;
-    }
-    Some((-b - disc.sqrt()) / (2.0 * a))
-}
 
 #[test]
 fn circle_circle_linear_motion_matches_the_quadratic_formula() {
@@ -293,7 +229,7 @@ fn planes() -> [(&'static str, ShapeProxy, Sweep); 2] {
 fn height_above_plane(points: &[Vec2], radius: f64, sweep: &Sweep, t: f64) -> f64 {
     points
         .iter()
-        .map(|p| world(sweep, *p, t)[1])
+        .map(|p| world_point(sweep, *p, t)[1])
         .fold(f64::INFINITY, f64::min)
         - radius
 }
@@ -690,7 +626,7 @@ fn spinning_rod_glancing_a_wall_is_a_hit() {
         let d = |t: f64| {
             0.95 - pts
                 .iter()
-                .map(|p| world(&sweep, *p, t)[0])
+                .map(|p| world_point(&sweep, *p, t)[0])
                 .fold(f64::NEG_INFINITY, f64::max)
         };
         // Two roots: clear at both ends, overlapping in the middle (test setup).
@@ -833,14 +769,8 @@ fn bullet_stopping_short_or_moving_away_is_separated() {
 fn a_disc_spun_about_its_centre_is_swept_like_a_translating_one() {
     let disc = Shape::from(Circle::new(0.15).expect("valid")).proxy();
     let block = Shape::from(Polygon::rectangle(0.4, 0.25).expect("valid")).proxy();
-    // A small linear congruential generator: seeded, no dependency.
-    let mut state = 0x2545_f491_4f6c_dd1du64;
-    let mut next = move || {
-        state = state
-            .wrapping_mul(6_364_136_223_846_793_005)
-            .wrapping_add(1_442_695_040_888_963_407);
-        (state >> 40) as f64 / (1u64 << 24) as f64
-    };
+    let mut rng = SceneRng::new(0x2545_f491_4f6c_dd1d);
+    let mut next = || rng.next_f64();
     let (mut hits, mut certified_offsets) = (0, 0);
     for k in 0..400 {
         let aim = v2(2.0 + 1.5 * next(), -1.5 + 3.0 * next());

@@ -2,12 +2,13 @@
 //! distance, on random shapes (circles, capsules, segments, convex polygons from random point
 //! clouds, rounded or sharp) and random sweeps (tens of metres, up to three turns).
 //!
-//! The reference distance is computed here from scratch: the core of a shape is the convex hull
-//! of its proxy points (the hull edges are found by brute force, in `f64`, from the local
-//! points), placed under the angle model of `sweep.rs` in `f64`; the distance between two
-//! disjoint cores is the smallest segment–segment distance over the hull edges, and for
-//! overlapping cores minus the penetration depth by the separating axis test over the hull edge
-//! normals of both cores. Surface distance = core distance - both radii.
+//! The reference distance is the one of `tests/support/reference.rs`, computed from scratch:
+//! the core of a shape is the convex hull of its proxy points (the hull edges are found by
+//! brute force, in `f64`, from the local points), placed under the angle model of `sweep.rs` in
+//! `f64`; the distance between two disjoint cores is the smallest vertex-to-edge distance over
+//! the hull edges, and for overlapping cores minus the penetration depth by the separating axis
+//! test over the hull edge normals of both cores. Surface distance = core distance - both
+//! radii.
 //!
 //! Tolerances:
 //!
@@ -18,19 +19,21 @@
 //!   such roundings, a few times 1e-5 m at worst. 1e-4 m is several times that and still 25
 //!   times smaller than the band width, so the checks keep their teeth.
 
+mod support;
+
 use std::f64::consts::PI;
 
 use bevy_ccd::geometry::{
     Capsule, Circle, DistanceInput, Polygon, Pose, Segment, Shape, ShapeProxy, SimplexCache, Sweep,
-    ToiFailure, ToiInput, ToiOutput, ToiState, constants::LINEAR_SLOP, shape_distance,
-    time_of_impact,
+    ToiFailure, ToiInput, ToiOutput, ToiState, shape_distance, time_of_impact,
 };
 use glam::Vec2;
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngSeed};
+use support::reference::{
+    Core, P, PoseD, SLOP, TOL, center_at, core_distance, first_crossing, norm, pose_at, sub, to_p,
+};
 
-const SLOP: f64 = LINEAR_SLOP as f64;
-const TOL: f64 = 0.25 * SLOP;
 const EPS: f64 = 1e-4;
 
 /// Moderate case counts and fixed seeds: the run is reproducible and fast.
@@ -45,209 +48,8 @@ fn config(cases: u32, seed: u64) -> Config {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Independent f64 geometry
+// The reference distance over a step
 // ---------------------------------------------------------------------------------------------
-
-type P = [f64; 2];
-
-fn sub(a: P, b: P) -> P {
-    [a[0] - b[0], a[1] - b[1]]
-}
-fn dot(a: P, b: P) -> f64 {
-    a[0] * b[0] + a[1] * b[1]
-}
-fn cross(a: P, b: P) -> f64 {
-    a[0] * b[1] - a[1] * b[0]
-}
-fn norm(a: P) -> f64 {
-    dot(a, a).sqrt()
-}
-
-/// A core (convex hull of points) in its local frame, in `f64`.
-#[derive(Clone, Debug)]
-struct Core {
-    points: Vec<P>,
-    /// Hull edges as index pairs; a single (i, i) for a point, one pair for a segment.
-    edges: Vec<(usize, usize)>,
-    /// Unit normals of the edges (empty for a point).
-    normals: Vec<P>,
-    radius: f64,
-}
-
-impl Core {
-    /// Finds the hull edges by brute force: (i, j) is an edge when every other point lies on one
-    /// side of its line. (Should three points be collinear on the hull, the extra pairs found are
-    /// sub-segments of the hull boundary, which changes neither the distance nor the normals.)
-    fn new(proxy: &ShapeProxy) -> Self {
-        let points: Vec<P> = proxy
-            .points()
-            .iter()
-            .map(|p| [p.x as f64, p.y as f64])
-            .collect();
-        let n = points.len();
-        let mut edges = Vec::new();
-        let mut normals = Vec::new();
-        if n == 1 {
-            edges.push((0, 0));
-        }
-        for i in 0..n {
-            for j in i + 1..n {
-                let e = sub(points[j], points[i]);
-                let len = norm(e);
-                if len == 0.0 {
-                    continue;
-                }
-                let sides: Vec<f64> = (0..n)
-                    .filter(|&k| k != i && k != j)
-                    .map(|k| cross(e, sub(points[k], points[i])))
-                    .collect();
-                let scale = 1e-12 * len;
-                if sides.iter().all(|&s| s >= -scale) || sides.iter().all(|&s| s <= scale) {
-                    edges.push((i, j));
-                    normals.push([-e[1] / len, e[0] / len]);
-                }
-            }
-        }
-        if edges.is_empty() {
-            // All points coincide.
-            edges.push((0, 0));
-        }
-        Self {
-            points,
-            edges,
-            normals,
-            radius: proxy.radius as f64,
-        }
-    }
-
-    /// Largest distance from `c` to a core point.
-    fn reach(&self, c: P) -> f64 {
-        self.points
-            .iter()
-            .map(|p| norm(sub(*p, c)))
-            .fold(0.0, f64::max)
-    }
-}
-
-/// A pose in f64: rotation angle and translation of the body origin.
-#[derive(Clone, Copy, Debug)]
-struct PoseD {
-    c: f64,
-    s: f64,
-    p: P,
-}
-
-impl PoseD {
-    fn apply(&self, v: P) -> P {
-        [
-            self.c * v[0] - self.s * v[1] + self.p[0],
-            self.s * v[0] + self.c * v[1] + self.p[1],
-        ]
-    }
-    fn rotate(&self, v: P) -> P {
-        [self.c * v[0] - self.s * v[1], self.s * v[0] + self.c * v[1]]
-    }
-    fn from_pose(pose: Pose) -> Self {
-        // Re-normalise the f32 rotation in f64 so both sides place the same rigid shape.
-        let (c, s) = (pose.q.c as f64, pose.q.s as f64);
-        let l = (c * c + s * s).sqrt();
-        Self {
-            c: c / l,
-            s: s / l,
-            p: [pose.p.x as f64, pose.p.y as f64],
-        }
-    }
-}
-
-/// The body pose at `t` under the angle model, in f64.
-fn pose_at(sweep: &Sweep, t: f64) -> PoseD {
-    let a = sweep.a0 as f64 + t * (sweep.a1 as f64 - sweep.a0 as f64);
-    let (s, c) = a.sin_cos();
-    let cx = sweep.c0.x as f64 + t * (sweep.c1.x as f64 - sweep.c0.x as f64);
-    let cy = sweep.c0.y as f64 + t * (sweep.c1.y as f64 - sweep.c0.y as f64);
-    let lc = [sweep.local_center.x as f64, sweep.local_center.y as f64];
-    let r = [c * lc[0] - s * lc[1], s * lc[0] + c * lc[1]];
-    PoseD {
-        c,
-        s,
-        p: [cx - r[0], cy - r[1]],
-    }
-}
-
-/// Squared distance from `p` to the segment `a b` (a point when `a == b`).
-fn point_segment_sq(p: P, a: P, b: P) -> f64 {
-    let ab = sub(b, a);
-    let l2 = dot(ab, ab);
-    let s = if l2 > 0.0 {
-        (dot(sub(p, a), ab) / l2).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    let d = sub(p, [a[0] + s * ab[0], a[1] + s * ab[1]]);
-    dot(d, d)
-}
-
-/// Core distance between two placed cores; minus the penetration depth when they overlap.
-fn core_distance(a: &Core, xa: &PoseD, b: &Core, xb: &PoseD) -> f64 {
-    let mut pa = [[0.0; 2]; 8];
-    let mut pb = [[0.0; 2]; 8];
-    let (na, nb) = (a.points.len(), b.points.len());
-    for (w, p) in pa.iter_mut().zip(&a.points) {
-        *w = xa.apply(*p);
-    }
-    for (w, p) in pb.iter_mut().zip(&b.points) {
-        *w = xb.apply(*p);
-    }
-    let (pa, pb) = (&pa[..na], &pb[..nb]);
-    // Separating axis test over the edge normals of both (those of the Minkowski difference).
-    let dirs = a
-        .normals
-        .iter()
-        .map(|n| xa.rotate(*n))
-        .chain(b.normals.iter().map(|n| xb.rotate(*n)));
-    let range = |set: &[P], n: P| {
-        set.iter()
-            .map(|p| dot(*p, n))
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), x| {
-                (l.min(x), h.max(x))
-            })
-    };
-    let mut depth = f64::INFINITY;
-    let mut any = false;
-    let mut separated = false;
-    for n in dirs {
-        any = true;
-        let (alo, ahi) = range(pa, n);
-        let (blo, bhi) = range(pb, n);
-        let overlap = (ahi - blo).min(bhi - alo);
-        if overlap <= 0.0 {
-            separated = true;
-            break;
-        }
-        depth = depth.min(overlap);
-    }
-    // When the Minkowski difference is two-dimensional the normals above are complete, so no
-    // separating normal means overlap. When it is degenerate (point/point, point/segment,
-    // parallel segments) every normal has overlap <= 0 and we fall through to the exact
-    // distance below, which is then right (0 when touching).
-    if any && !separated {
-        return -depth;
-    }
-    // Disjoint (or touching) convex sets: a closest pair always includes a vertex of one of
-    // them, so vertex-to-edge distances both ways are exact.
-    let mut best = f64::INFINITY;
-    for &(k, l) in &b.edges {
-        for p in pa {
-            best = best.min(point_segment_sq(*p, pb[k], pb[l]));
-        }
-    }
-    for &(i, j) in &a.edges {
-        for p in pb {
-            best = best.min(point_segment_sq(*p, pa[i], pa[j]));
-        }
-    }
-    best.sqrt()
-}
 
 /// A body for the reference: its core and its motion.
 #[derive(Clone, Debug)]
@@ -259,9 +61,8 @@ struct Body {
 
 impl Body {
     fn new(proxy: &ShapeProxy, sweep: Sweep) -> Self {
-        let core = Core::new(proxy);
-        let lc = [sweep.local_center.x as f64, sweep.local_center.y as f64];
-        let reach = core.reach(lc) + core.radius;
+        let core = Core::from_proxy(proxy);
+        let reach = core.reach(to_p(sweep.local_center)) + core.radius;
         Self { core, sweep, reach }
     }
 }
@@ -271,21 +72,11 @@ impl Body {
 /// is far below `FAR`, so no decision changes): this keeps 2000-sample sweeps cheap.
 const FAR: f64 = 0.5;
 fn surface_distance(a: &Body, b: &Body, t: f64) -> f64 {
-    let xa = pose_at(&a.sweep, t);
-    let xb = pose_at(&b.sweep, t);
-    let ca = [
-        a.sweep.c0.x as f64 + t * (a.sweep.c1.x as f64 - a.sweep.c0.x as f64),
-        a.sweep.c0.y as f64 + t * (a.sweep.c1.y as f64 - a.sweep.c0.y as f64),
-    ];
-    let cb = [
-        b.sweep.c0.x as f64 + t * (b.sweep.c1.x as f64 - b.sweep.c0.x as f64),
-        b.sweep.c0.y as f64 + t * (b.sweep.c1.y as f64 - b.sweep.c0.y as f64),
-    ];
-    let bound = norm(sub(cb, ca)) - a.reach - b.reach;
+    let bound = norm(sub(center_at(&b.sweep, t), center_at(&a.sweep, t))) - a.reach - b.reach;
     if bound > FAR {
         return bound;
     }
-    core_distance(&a.core, &xa, &b.core, &xb) - a.core.radius - b.core.radius
+    exact_surface_distance(a, b, t)
 }
 
 /// Surface distance at `t` without the far-field shortcut.
@@ -346,33 +137,6 @@ fn min_distance(a: &Body, b: &Body, t0: f64, t1: f64, n: usize) -> (f64, f64) {
         }
     }
     best
-}
-
-/// The first `t` in `[0, t_end]` with distance `<= level` (dense sampling, then bisection), or
-/// `None`.
-fn first_crossing(a: &Body, b: &Body, level: f64, t_end: f64, n: usize) -> Option<f64> {
-    let f = |t: f64| surface_distance(a, b, t);
-    if f(0.0) <= level {
-        return Some(0.0);
-    }
-    let mut prev = 0.0;
-    for i in 1..=n {
-        let t = t_end * i as f64 / n as f64;
-        if f(t) <= level {
-            let (mut lo, mut hi) = (prev, t);
-            for _ in 0..60 {
-                let m = 0.5 * (lo + hi);
-                if f(m) <= level {
-                    hi = m;
-                } else {
-                    lo = m;
-                }
-            }
-            return Some(hi);
-        }
-        prev = t;
-    }
-    None
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -733,8 +497,8 @@ proptest! {
             }
         }
         if ab.state == ToiState::Hit && ba.state == ToiState::Hit && ab.fraction != ba.fraction {
-            let lo = first_crossing(&a, &b, SLOP + TOL + EPS, tmax, SAMPLES).unwrap_or(0.0);
-            let hi = first_crossing(&a, &b, SLOP - TOL - EPS, tmax, SAMPLES).unwrap_or(tmax);
+            let lo = first_crossing(|t| surface_distance(&a, &b, t), SLOP + TOL + EPS, tmax, SAMPLES).unwrap_or(0.0);
+            let hi = first_crossing(|t| surface_distance(&a, &b, t), SLOP - TOL - EPS, tmax, SAMPLES).unwrap_or(tmax);
             for t in [ab.fraction as f64, ba.fraction as f64] {
                 // 1e-6 of step: the bisection of the window ends and f32 fraction rounding.
                 prop_assert!(
@@ -761,12 +525,7 @@ fn pose() -> impl Strategy<Value = Pose> {
 
 /// Distance from a world point to a placed core (0 inside), by brute force.
 fn point_to_core(p: P, core: &Core, x: &PoseD) -> f64 {
-    let point = Core {
-        points: vec![[0.0, 0.0]],
-        edges: vec![(0, 0)],
-        normals: vec![],
-        radius: 0.0,
-    };
+    let point = Core::new(&[[0.0, 0.0]], 0.0);
     let xp = PoseD { c: 1.0, s: 0.0, p };
     core_distance(&point, &xp, core, x).max(0.0)
 }
@@ -780,7 +539,7 @@ proptest! {
     #[test]
     fn gjk_matches_brute_force(sa in shape(), sb in shape(), xa in pose(), xb in pose()) {
         let (pa, pb) = (sa.proxy(), sb.proxy());
-        let (ca, cb) = (Core::new(&pa), Core::new(&pb));
+        let (ca, cb) = (Core::from_proxy(&pa), Core::from_proxy(&pb));
         let (da, db) = (PoseD::from_pose(xa), PoseD::from_pose(xb));
         let truth = core_distance(&ca, &da, &cb, &db);
         // Absolute tolerance: 1e-4 relative to the scale of the problem (coordinates up to

@@ -11,7 +11,8 @@ use crate::geometry::{
     Aabb, Capsule, Circle, DistanceInput, Polygon, Pose, Shape, ShapeProxy, shape_distance,
 };
 
-/// A small deterministic generator (SplitMix64), so scenes need no `rand` dependency.
+/// A small deterministic generator (SplitMix64), so scenes need no `rand` dependency: the one
+/// seeded generator of the fixtures, the tests and the benches.
 #[derive(Clone, Debug)]
 pub struct SceneRng(u64);
 
@@ -30,10 +31,24 @@ impl SceneRng {
         z ^ (z >> 31)
     }
 
+    /// A float uniform in `[0, 1)`, on a grid of 2^-24.
+    pub fn next_f32(&mut self) -> f32 {
+        (self.next_u64() >> 40) as f32 / (1u64 << 24) as f32
+    }
+
+    /// A float uniform in `[0, 1)`, on a grid of 2^-53.
+    pub fn next_f64(&mut self) -> f64 {
+        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
+    }
+
+    /// An index uniform in `0..n` (up to a bias of `n / 2^64`); `n` must not be zero.
+    pub fn below(&mut self, n: usize) -> usize {
+        (self.next_u64() % n as u64) as usize
+    }
+
     /// A float uniform in `[lo, hi)`.
     pub fn range(&mut self, lo: f32, hi: f32) -> f32 {
-        let unit = (self.next_u64() >> 40) as f32 / (1u64 << 24) as f32;
-        lo + (hi - lo) * unit
+        lo + (hi - lo) * self.next_f32()
     }
 
     /// A launch velocity: a uniform direction, a log-uniform speed in `[min_speed, max_speed)`
@@ -120,14 +135,13 @@ pub struct Arena {
 fn random_body_shape(rng: &mut SceneRng) -> Shape {
     // Every size here is well above MIN_SHAPE_SIZE, so construction cannot fail; fall back to
     // a disc all the same rather than unwrap.
-    let shape: Result<Shape, _> = match rng.next_u64() % 5 {
+    let shape: Result<Shape, _> = match rng.below(5) {
         0 => Circle::new(rng.range(0.05, 0.3)).map(Shape::from),
         1 => Polygon::rectangle(rng.range(0.05, 0.3), rng.range(0.05, 0.3)).map(Shape::from),
         2 => Capsule::horizontal(rng.range(0.1, 0.4), rng.range(0.03, 0.1)).map(Shape::from),
         // Thin rod: 1 cm thick.
         3 => Polygon::rectangle(rng.range(0.2, 0.6), 0.005).map(Shape::from),
-        _ => Polygon::regular(5 + (rng.next_u64() % 4) as usize, rng.range(0.1, 0.3), 0.02)
-            .map(Shape::from),
+        _ => Polygon::regular(5 + rng.below(4), rng.range(0.1, 0.3), 0.02).map(Shape::from),
     };
     shape.unwrap_or_else(|_| Shape::from(Circle::new(0.1).expect("0.1 m disc is valid")))
 }
@@ -419,12 +433,12 @@ pub fn generate_level(config: &LevelConfig) -> Level {
     for i in 0..inner {
         let (col, row) = (i % side, i / side);
         let center = Vec2::new(-h + c * (col as f32 + 0.5), -h + c * (row as f32 + 0.5));
-        let (collider, angle) = match rng.next_u64() % 3 {
+        let (collider, angle) = match rng.below(3) {
             // A thin wall (1 to 10 cm thick), horizontal or vertical.
             0 => {
                 let half = rng.range(0.3, 0.48) * c;
                 let thick = rng.range(0.005, 0.05);
-                let vertical = rng.next_u64().is_multiple_of(2);
+                let vertical = rng.below(2) == 0;
                 (
                     Collider::rectangle(half, thick),
                     if vertical {

@@ -42,8 +42,8 @@ pub use super::arena::{
     generate_level, spawn_arena, spawn_level,
 };
 pub use super::level_check::{check_level_against_geometry, check_record_passes};
-use super::{CcdEnabled, CcdPlugin, Collider, StaticCollider, Velocity};
-use crate::geometry::{Aabb, Pose};
+use super::{CcdConfig, CcdEnabled, CcdPlugin, Collider, StaticCollider, Velocity};
+use crate::geometry::{Aabb, LINEAR_SLOP, Pose};
 
 /// An app with the time and CCD plugins where every `update` runs exactly one fixed step of
 /// `timestep` seconds, whatever its length.
@@ -103,6 +103,61 @@ pub fn integrate_velocity(
         transform.translation += Vec3::new(v.linear.x, v.linear.y, 0.0) * dt;
         transform.rotation = Quat::from_rotation_z(v.angular * dt) * transform.rotation;
     }
+}
+
+/// A [`headless_app`] stepping `timestep` seconds with `config`, [`Gravity`] `gravity` and
+/// [`integrate_velocity`] as the user's movement (in `FixedUpdate`).
+pub fn moving_app(timestep: f64, config: CcdConfig, gravity: glam::Vec2) -> App {
+    let mut app = headless_app(timestep);
+    app.insert_resource(config)
+        .insert_resource(Gravity(gravity))
+        .add_systems(FixedUpdate, integrate_velocity);
+    app
+}
+
+/// A [`moving_app`] holding the arena of `arena`: the set-up of the arena tests, the demo and
+/// the soak run.
+///
+/// ```
+/// use bevy_ccd::prelude::*;
+/// use bevy_ccd::testing::{ArenaConfig, StepFixed, arena_app, assert_contained};
+///
+/// let arena = ArenaConfig { bodies: 50, ..Default::default() };
+/// let gravity = Vec2::new(0.0, -9.81);
+/// let (mut app, spawned) = arena_app(1.0 / 60.0, CcdConfig::default(), gravity, &arena);
+/// for step in 0..30 {
+///     app.step_fixed(1);
+///     assert_contained(app.world_mut(), spawned.interior, &format!("step {step}"));
+/// }
+/// ```
+pub fn arena_app(
+    timestep: f64,
+    config: CcdConfig,
+    gravity: glam::Vec2,
+    arena: &ArenaConfig,
+) -> (App, Arena) {
+    let mut app = moving_app(timestep, config, gravity);
+    let spawned = spawn_arena(app.world_mut(), arena);
+    (app, spawned)
+}
+
+/// Panics, naming `what`, when a CCD body is not inside `interior` (widened by the default
+/// linear slop) or ends deeper than that slop in a static; returns the deepest penetration (m)
+/// otherwise.
+pub fn assert_contained(world: &mut World, interior: Aabb, what: &str) -> f32 {
+    let outside = bodies_outside(world, interior.expanded(LINEAR_SLOP));
+    assert!(
+        outside.is_empty(),
+        "{what}: {} bodies left the box: {:?}",
+        outside.len(),
+        &outside[..outside.len().min(10)]
+    );
+    let (depth, pair) = deepest_penetration(world);
+    assert!(
+        depth <= LINEAR_SLOP,
+        "{what}: {pair:?} overlap {depth} m, deeper than the slop"
+    );
+    depth
 }
 
 /// The CCD bodies (entities with [`CcdEnabled`] and a [`Collider`], statics excluded) whose

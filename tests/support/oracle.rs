@@ -2,14 +2,15 @@
 //! a copy of `shared/toi-cases/public.jsonl`; format and scoring rules in its README).
 //!
 //! The scorer evaluates the true distance at a reported fraction in `f64` under the angle
-//! model, by brute force over all point pairs (a superset of the hull edges, so it is exact for
-//! convex cores), and classifies the answer as the README prescribes.
-#![allow(dead_code)]
+//! model (or the nlerp model of Box2D's sweeps) with the reference geometry of
+//! `reference.rs`, exact for convex cores, and classifies the answer as the README prescribes.
 
 use bevy_ccd::geometry::{ShapeProxy, Sweep, ToiInput, ToiOutput, ToiState};
 use bevy_ccd::testing::SceneRng;
 use glam::Vec2;
 use serde::Deserialize;
+
+use super::reference::{Core, P, PoseD, center_at, core_distance, pose_at, to_p};
 
 /// The linear slop the cases are scored with (m).
 pub const SLOP: f64 = 0.005;
@@ -75,6 +76,12 @@ impl ShapeJson {
         let pts: Vec<Vec2> = self.points.iter().map(|p| v(*p)).collect();
         ShapeProxy::new(&pts, self.radius).expect("oracle shapes are valid")
     }
+
+    /// The shape's core in `f64`, for the reference distance.
+    fn core(&self) -> Core {
+        let points: Vec<P> = self.points.iter().map(|p| to_p(v(*p))).collect();
+        Core::new(&points, self.radius as f64)
+    }
 }
 
 impl SweepJson {
@@ -99,124 +106,10 @@ impl Case {
         )
     }
 
-    /// World points of a shape at `t` under the angle model, in f64.
-    fn world(shape: &ShapeJson, s: &SweepJson, t: f64) -> Vec<[f64; 2]> {
-        let c = [
-            s.c0[0] as f64 + t * (s.c1[0] as f64 - s.c0[0] as f64),
-            s.c0[1] as f64 + t * (s.c1[1] as f64 - s.c0[1] as f64),
-        ];
-        let a = s.a0 as f64 + t * (s.a1 as f64 - s.a0 as f64);
-        let (sn, cs) = a.sin_cos();
-        shape
-            .points
-            .iter()
-            .map(|p| {
-                let x = p[0] as f64 - s.local_center[0] as f64;
-                let y = p[1] as f64 - s.local_center[1] as f64;
-                [c[0] + cs * x - sn * y, c[1] + sn * x + cs * y]
-            })
-            .collect()
-    }
-
     /// Surface distance at `t` (angle model): positive apart, minus the depth when overlapping.
     pub fn distance_at(&self, t: f64) -> f64 {
-        let pa = Self::world(&self.a, &self.sweep_a, t);
-        let pb = Self::world(&self.b, &self.sweep_b, t);
-        core_distance(&pa, &pb) - (self.a.radius as f64 + self.b.radius as f64)
+        self.distance_at_model(Model::Angle, t)
     }
-}
-
-fn seg_point(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
-    let ab = [b[0] - a[0], b[1] - a[1]];
-    let ap = [p[0] - a[0], p[1] - a[1]];
-    let l2 = ab[0] * ab[0] + ab[1] * ab[1];
-    let s = if l2 > 0.0 {
-        ((ap[0] * ab[0] + ap[1] * ab[1]) / l2).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    let d = [ap[0] - s * ab[0], ap[1] - s * ab[1]];
-    (d[0] * d[0] + d[1] * d[1]).sqrt()
-}
-
-fn segs(p: &[[f64; 2]]) -> Vec<([f64; 2], [f64; 2])> {
-    let mut out = Vec::new();
-    for i in 0..p.len() {
-        out.push((p[i], p[i]));
-        for j in i + 1..p.len() {
-            out.push((p[i], p[j]));
-        }
-    }
-    out
-}
-
-/// Distance between the convex hulls of two point sets, or minus the penetration depth.
-pub fn core_distance(a: &[[f64; 2]], b: &[[f64; 2]]) -> f64 {
-    // Penetration depth by SAT over all pair normals (a superset of the hull edge normals).
-    let mut dirs = Vec::new();
-    for set in [a, b] {
-        for i in 0..set.len() {
-            for j in i + 1..set.len() {
-                let e = [set[j][0] - set[i][0], set[j][1] - set[i][1]];
-                let l = (e[0] * e[0] + e[1] * e[1]).sqrt();
-                if l > 0.0 {
-                    dirs.push([-e[1] / l, e[0] / l]);
-                }
-            }
-        }
-    }
-    let mut depth = f64::INFINITY;
-    let mut separated = dirs.is_empty() && a.len() == 1 && b.len() == 1;
-    if !dirs.is_empty() {
-        for n in &dirs {
-            let proj = |s: &[[f64; 2]]| {
-                s.iter()
-                    .map(|p| p[0] * n[0] + p[1] * n[1])
-                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), x| {
-                        (lo.min(x), hi.max(x))
-                    })
-            };
-            let (alo, ahi) = proj(a);
-            let (blo, bhi) = proj(b);
-            let overlap = (ahi - blo).min(bhi - alo);
-            if overlap <= 0.0 {
-                separated = true;
-                break;
-            }
-            depth = depth.min(overlap);
-        }
-    }
-    if !separated {
-        // Points and segments: without any 2D hull the SAT set is incomplete for point–point;
-        // the pair distance below is then exact and zero-depth overlaps are reported as 0.
-        if a.len() > 2 || b.len() > 2 || (a.len() == 2 && b.len() == 2) {
-            return -depth;
-        }
-    }
-    let mut best = f64::INFINITY;
-    for (a1, a2) in segs(a) {
-        for (b1, b2) in segs(b) {
-            best = best.min(seg_seg(a1, a2, b1, b2));
-        }
-    }
-    best
-}
-
-fn seg_seg(a1: [f64; 2], a2: [f64; 2], b1: [f64; 2], b2: [f64; 2]) -> f64 {
-    let cross = |o: [f64; 2], p: [f64; 2], q: [f64; 2]| {
-        (p[0] - o[0]) * (q[1] - o[1]) - (p[1] - o[1]) * (q[0] - o[0])
-    };
-    let d1 = cross(a1, a2, b1);
-    let d2 = cross(a1, a2, b2);
-    let d3 = cross(b1, b2, a1);
-    let d4 = cross(b1, b2, a2);
-    if a1 != a2 && b1 != b2 && d1 * d2 < 0.0 && d3 * d4 < 0.0 {
-        return 0.0;
-    }
-    seg_point(a1, b1, b2)
-        .min(seg_point(a2, b1, b2))
-        .min(seg_point(b1, a1, a2))
-        .min(seg_point(b2, a1, a2))
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -307,6 +200,17 @@ impl Model {
             Model::Nlerp => "nlerp",
         }
     }
+
+    /// The body pose at `t` under this model, in f64.
+    pub fn pose_at(self, sweep: &Sweep, t: f64) -> PoseD {
+        match self {
+            Model::Angle => pose_at(sweep, t),
+            Model::Nlerp => {
+                let (c, s) = nlerp_rotation(sweep.a0 as f64, sweep.a1 as f64, t);
+                PoseD::about_center(c, s, center_at(sweep, t), to_p(sweep.local_center))
+            }
+        }
+    }
 }
 
 /// The state of a result in the README's implementation-neutral terms, so results of other
@@ -355,35 +259,13 @@ impl Case {
         }
     }
 
-    /// World points of a shape at `t` under the nlerp model, in f64.
-    fn world_nlerp(shape: &ShapeJson, s: &SweepJson, t: f64) -> Vec<[f64; 2]> {
-        let c = [
-            s.c0[0] as f64 + t * (s.c1[0] as f64 - s.c0[0] as f64),
-            s.c0[1] as f64 + t * (s.c1[1] as f64 - s.c0[1] as f64),
-        ];
-        let (cs, sn) = nlerp_rotation(s.a0 as f64, s.a1 as f64, t);
-        shape
-            .points
-            .iter()
-            .map(|p| {
-                let x = p[0] as f64 - s.local_center[0] as f64;
-                let y = p[1] as f64 - s.local_center[1] as f64;
-                [c[0] + cs * x - sn * y, c[1] + sn * x + cs * y]
-            })
-            .collect()
-    }
-
     /// Surface distance at `t` under the given model: positive apart, minus the depth when
-    /// overlapping. For [`Model::Angle`] this is [`Case::distance_at`].
+    /// overlapping.
     pub fn distance_at_model(&self, model: Model, t: f64) -> f64 {
-        match model {
-            Model::Angle => self.distance_at(t),
-            Model::Nlerp => {
-                let pa = Self::world_nlerp(&self.a, &self.sweep_a, t);
-                let pb = Self::world_nlerp(&self.b, &self.sweep_b, t);
-                core_distance(&pa, &pb) - (self.a.radius as f64 + self.b.radius as f64)
-            }
-        }
+        let (a, b) = (self.a.core(), self.b.core());
+        let xa = model.pose_at(&self.sweep_a.sweep(), t);
+        let xb = model.pose_at(&self.sweep_b.sweep(), t);
+        core_distance(&a, &xa, &b, &xb) - a.radius - b.radius
     }
 }
 
@@ -466,24 +348,18 @@ pub const SEPARATED_FAMILY: &str = "separated";
 /// The family name of [`separated_cases`] with `near = true`.
 pub const NEAR_MISS_FAMILY: &str = "near_miss";
 
-/// An index below `n`, from the crate's seeded generator (SplitMix64), so the generated cases
-/// are the same on every run and machine.
-fn below(rng: &mut SceneRng, n: usize) -> usize {
-    (rng.next_u64() % n as u64) as usize
-}
-
 /// A random shape of the README's kinds: circle, capsule, segment, box, or a convex polygon of
 /// 3..8 vertices (rounded or not), 0.05..1.5 m across.
 fn random_shape(rng: &mut SceneRng) -> ShapeJson {
     let size = rng.range(0.05, 0.75);
-    match below(rng, 6) {
+    match rng.below(6) {
         0 => ShapeJson {
             points: vec![[0.0, 0.0]],
             radius: size,
         },
         1 | 2 => ShapeJson {
             points: vec![[-size, 0.0], [size, 0.0]],
-            radius: if below(rng, 2) == 0 {
+            radius: if rng.below(2) == 0 {
                 0.0
             } else {
                 rng.range(0.02, 0.3)
@@ -498,7 +374,7 @@ fn random_shape(rng: &mut SceneRng) -> ShapeJson {
         }
         _ => {
             // Vertices on a circle at jittered, increasing angles: convex and counter-clockwise.
-            let n = 3 + below(rng, 6);
+            let n = 3 + rng.below(6);
             let step = core::f32::consts::TAU / n as f32;
             let points = (0..n)
                 .map(|i| {
@@ -508,7 +384,7 @@ fn random_shape(rng: &mut SceneRng) -> ShapeJson {
                 .collect();
             ShapeJson {
                 points,
-                radius: if below(rng, 3) == 0 {
+                radius: if rng.below(3) == 0 {
                     rng.range(0.01, 0.1)
                 } else {
                     0.0
@@ -520,11 +396,7 @@ fn random_shape(rng: &mut SceneRng) -> ShapeJson {
 
 /// The largest distance of a shape's core points from a centre (f64).
 fn reach(shape: &ShapeJson, center: [f32; 2]) -> f64 {
-    shape
-        .points
-        .iter()
-        .map(|p| f64::from(p[0] - center[0]).hypot(f64::from(p[1] - center[1])))
-        .fold(0.0, f64::max)
+    shape.core().reach(to_p(v(center)))
 }
 
 /// `count` pairs whose swept bounding boxes overlap (so a broad phase would pair them) but that
@@ -551,7 +423,7 @@ pub fn separated_cases(count: usize, near: bool) -> Vec<Case> {
         let b = random_shape(&mut rng);
         let sweep = |rng: &mut SceneRng, c0: [f32; 2], moving: bool| {
             let (v, w) = if moving {
-                let turn = if below(rng, 3) == 0 {
+                let turn = if rng.below(3) == 0 {
                     0.0
                 } else {
                     rng.range(-2.0, 2.0)
@@ -571,7 +443,7 @@ pub fn separated_cases(count: usize, near: bool) -> Vec<Case> {
         };
         // A at rest half of the time (a wall or a sleeping body), B always moving; B starts
         // within a few metres of A, so the swept boxes mostly overlap.
-        let a_moves = below(&mut rng, 2) == 0;
+        let a_moves = rng.below(2) == 0;
         let sweep_a = sweep(&mut rng, [0.0, 0.0], a_moves);
         let start = [rng.range(-4.0, 4.0), rng.range(-4.0, 4.0)];
         let sweep_b = sweep(&mut rng, start, true);
