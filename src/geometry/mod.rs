@@ -8,6 +8,7 @@ mod math;
 mod proxy;
 mod resolve;
 mod shape;
+mod static_set;
 mod sweep;
 mod toi;
 
@@ -20,9 +21,9 @@ pub use gjk::{DistanceInput, DistanceOutput, SimplexCache, shape_distance};
 pub use math::{Pose, Rot, atan2, cross, left_perp, right_perp};
 pub use proxy::ShapeProxy;
 pub use resolve::{
-    BodyOutcome, BodyState, ImpactRecord, ResolveMode, SolveSettings, StaticItem, StaticSet,
-    contact_response, solve_body,
+    BodyOutcome, BodyState, ImpactRecord, ResolveMode, SolveSettings, contact_response, solve_body,
 };
 pub use shape::{Aabb, Capsule, Circle, MassProperties, Polygon, Segment, Shape, ShapeError};
+pub use static_set::{StaticItem, StaticSet};
 pub use sweep::Sweep;
 pub use toi::{ToiConfig, ToiFailure, ToiInput, ToiOutput, ToiState, time_of_impact};
