@@ -3,6 +3,7 @@
 
 mod bvh;
 pub mod constants;
+mod cull;
 mod gjk;
 mod math;
 mod proxy;
@@ -10,6 +11,8 @@ mod resolve;
 mod shape;
 mod static_set;
 mod sweep;
+#[cfg(test)]
+mod test_support;
 mod toi;
 
 pub use bvh::{Bvh, QUERY_GROUP};
