@@ -6,6 +6,7 @@ pub mod constants;
 mod cull;
 mod gjk;
 mod math;
+mod pair;
 mod proxy;
 mod resolve;
 mod shape;
