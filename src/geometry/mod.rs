@@ -9,6 +9,7 @@ mod math;
 mod pair;
 mod proxy;
 mod resolve;
+mod response;
 mod shape;
 mod static_set;
 mod sweep;
@@ -24,9 +25,8 @@ pub use constants::{
 pub use gjk::{DistanceInput, DistanceOutput, SimplexCache, shape_distance};
 pub use math::{Pose, Rot, atan2, cross, left_perp, right_perp};
 pub use proxy::ShapeProxy;
-pub use resolve::{
-    BodyOutcome, BodyState, ImpactRecord, ResolveMode, SolveSettings, contact_response, solve_body,
-};
+pub use resolve::{BodyOutcome, BodyState, ImpactRecord, ResolveMode, SolveSettings, solve_body};
+pub use response::contact_response;
 pub use shape::{Aabb, Capsule, Circle, MassProperties, Polygon, Segment, Shape, ShapeError};
 pub use static_set::{StaticItem, StaticSet};
 pub use sweep::Sweep;
