@@ -11,11 +11,11 @@
 
 use glam::Vec2;
 
+use super::body_solver::BodyState;
 use super::constants::{FINEST_TOLERANCE, separation_tolerance};
 use super::cull::out_of_reach;
 use super::math::{Pose, left_perp, right_perp};
 use super::proxy::ShapeProxy;
-use super::resolve::BodyState;
 use super::static_set::{StaticItem, TargetFrame};
 use super::sweep::Sweep;
 use super::toi::{

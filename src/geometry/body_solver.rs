@@ -1,23 +1,15 @@
-//! One body's continuous collision step against the static world: time of impact against
-//! every candidate, earliest hit wins, then clamp or sub-step with an impulse response.
+//! One body's continuous collision step against the static world ([`solve_body`]): time of
+//! impact against every candidate, earliest hit wins, then clamp or sub-step with an impulse
+//! response.
 //!
 //! Plain Rust: the plugin gathers a [`BodyState`] per body, calls [`solve_body`] (in parallel,
 //! each body independent of the others) and writes the [`BodyOutcome`] back.
 //!
-//! Each candidate target goes through three tests, cheapest first, each proven not to drop a
-//! hit (unit tests below check each against the full query on random spinning sweeps):
-//!
-//! 1. `reach_interval`: the body's core stays within its reach of the centre of mass, which
-//!    moves on a straight line, so the fractions of the step at which the pair can be in range
-//!    form one interval, found by clipping that line against the target's box grown by the
-//!    reach (a slab test). Targets never in range drop out; the others are visited in order of
-//!    entry, and the visit stops once the entry is later than the earliest hit found.
-//! 2. `out_of_reach`: over that interval (cut at the earliest hit), the distance from the
-//!    centre's path to the target's core, by separating axes, in closed form for box cores, or
-//!    by GJK, bounds the body's distance from below.
-//! 3. The time of impact itself, searching only that interval: it starts where the pair can
-//!    first be in range (proven clear before) and ends where it can last be, or at the
-//!    earliest hit.
+//! Per sweep, the candidates are ordered by when the body can first reach them
+//! ([`super::cull`]), each is searched only up to the earliest hit so far ([`super::pair`]),
+//! and the hit's contacts (every contact the body starts the sweep with, when it hits at 0)
+//! are responded to together, Gauss-Seidel over them ([`super::response`]). Sub-steps sweep
+//! the rest of the step from the impact with the new velocity.
 
 use glam::Vec2;
 use smallvec::SmallVec;
