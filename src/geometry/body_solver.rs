@@ -111,9 +111,9 @@ pub struct BodyOutcome {
     pub failure: Option<ToiFailure>,
     /// The body was moved out along a contact's normal before it was swept: its sharp corner
     /// was a few micrometres from the target (closer than the time of impact can search from,
-    /// see [`FINEST_TOLERANCE`](super::constants::FINEST_TOLERANCE)), or repeated contacts had pressed it to the slop's depth.
-    /// `position` is then not on the sweep given; the move is at most a few tenths of a
-    /// millimetre at the default slop.
+    /// see [`FINEST_TOLERANCE`](super::constants::FINEST_TOLERANCE)), or repeated contacts had
+    /// pressed it to the slop's depth. `position` is then not on the sweep given; the move is
+    /// at most a few tenths of a millimetre at the default slop.
     pub nudged: bool,
 }
 

@@ -33,8 +33,8 @@ pub(super) struct Contact {
 }
 
 /// What one pair test found. `touch` is the contact when the body starts the sweep touching
-/// the target: [`solve_body`](super::solve_body) responds to every such contact together once one of them is
-/// driven into.
+/// the target: [`solve_body`](super::solve_body) responds to every such contact together once
+/// one of them is driven into.
 pub(super) enum PairOutcome {
     Clear {
         overlapping: bool,

@@ -293,8 +293,8 @@ fn point_impulse(body: &ResponseBody, velocity: (DVec2, f64), r: DVec2) -> (DVec
     (v + settle * inv_m * normal, w + rn * settle * inv_i)
 }
 
-/// One contact as [`solve_body`](super::solve_body) responds to it: the ends of its patch (from the centre of
-/// mass), the outward normal, and the push (m/s).
+/// One contact as [`solve_body`](super::solve_body) responds to it: the ends of its patch
+/// (from the centre of mass), the outward normal, and the push (m/s).
 pub(super) type Response = ((Vec2, Vec2), Vec2, f32);
 
 #[cfg(test)]

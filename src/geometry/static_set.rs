@@ -149,11 +149,11 @@ pub(super) struct TargetFrame {
     pub(super) core_is_box: bool,
 }
 
-/// What [`reach_interval`](super::cull::reach_interval) needs of a target, packed in 36 bytes (at the head of its
-/// [`TargetRecord`]): every candidate of the broad phase goes through that test and most stop
-/// there, so this is what the solve reads of most targets. With 100,000 statics the targets
-/// are far apart in memory and each read of [`StaticItem`] (two cache lines) is a miss; this
-/// one line is read instead.
+/// What [`reach_interval`](super::cull::reach_interval) needs of a target, packed in 36 bytes
+/// (at the head of its [`TargetRecord`]): every candidate of the broad phase goes through that
+/// test and most stop there, so this is what the solve reads of most targets. With 100,000
+/// statics the targets are far apart in memory and each read of [`StaticItem`] (two cache
+/// lines) is a miss; this one line is read instead.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct TargetKey {
     pub(super) position: Vec2,
