@@ -29,8 +29,8 @@ pub struct StaticItem {
 }
 
 /// Fewest targets for which [`StaticSet::touch`] is used: 4,096 targets' records (148 bytes
-/// each) take 592 KiB, more than half of a core's L2 cache (1 MiB on the bench machine), which
-/// the step's own data shares. Only speed depends on it.
+/// each: the [`TargetRecord`] line, 64, and the shape, 84) take 592 KiB, more than half of a
+/// 1 MiB L2 cache, which the step's own data shares. Only speed depends on it.
 const TOUCH_MIN_TARGETS: usize = 4096;
 
 /// The static world: targets and their bounding-volume hierarchy.
@@ -45,11 +45,9 @@ pub struct StaticSet {
 }
 
 impl StaticSet {
-    /// Whether [`Self::touch`] pays: the per-target records (148 bytes a target: the
-    /// [`TargetRecord`] line, 64, and the shape, 84) outgrow a core's L2 cache (1 MiB on the
-    /// bench machine, shared with the step's own data) from a few thousand targets on. Below
-    /// that they stay cached from step to step and touching them first is only extra work
-    /// (measured +1 % at 1,000 targets).
+    /// Whether [`Self::touch`] pays: the per-target records outgrow a core's L2 cache from a
+    /// few thousand targets on ([`TOUCH_MIN_TARGETS`]). Below that they stay cached from step
+    /// to step and touching them first is only extra work.
     pub(crate) fn worth_touching(&self) -> bool {
         self.items.len() >= TOUCH_MIN_TARGETS
     }
@@ -58,8 +56,7 @@ impl StaticSet {
     /// [`TargetRecord`] and its shape) and returns them folded together, for the caller to
     /// pass to `black_box` so that the loads stay. A software prefetch without `unsafe`: done
     /// for a batch of bodies before their pair tests, the loads are independent, so their
-    /// cache misses overlap instead of each stalling a test in turn (time of impact at 50,000
-    /// bodies and 100,000 statics −10 %).
+    /// cache misses overlap instead of each stalling a test in turn.
     pub(crate) fn touch(&self, targets: &[u32]) -> u32 {
         let mut folded = 0u32;
         for &i in targets {
@@ -177,13 +174,9 @@ impl TargetKey {
 
 /// A target's [`TargetKey`] and the rest of its [`TargetFrame`] (the two share the rotation
 /// and the core's bounds), in one cache line: the ordering test reads the key of every
-/// candidate, and the pair test the frame of those it keeps. Kept apart (36 and 32 bytes), a
-/// key straddled two lines for about half the targets and the frame was a line more; with
-/// 100,000 statics each is a miss.
-///
-/// Measured (`SCENE_PROFILE`, alternating builds): time of impact at 10k × 100k clamp
-/// 2.70-2.76 → 2.48-2.51 ms, at 50k × 100k sub-step 30.9-31.8 → 29.4-31.2 ms (five pairs);
-/// 1,000 statics and 1k × 100k unchanged within the noise.
+/// candidate, and the pair test the frame of those it keeps. Apart (36 and 32 bytes), a key
+/// would straddle two lines for about half the targets and the frame would be a line more;
+/// with 100,000 statics each line is a cache miss.
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(64))]
 pub(super) struct TargetRecord {
