@@ -523,8 +523,8 @@ mod tests {
     }
 
     /// A capsule 1.6 mm into the floor, leaving it at 120 m/s while spinning at 170 rad/s (a
-    /// case the arena froze for 600 steps): its start lay inside the band the lowered search
-    /// used, so it was hit at 0 with nothing to respond to, step after step. It must leave.
+    /// body the arena froze): a start inside the band of the lowered search would be hit at 0
+    /// with nothing to respond to, step after step. It must leave.
     #[test]
     fn a_spinning_body_leaving_a_floor_it_overlaps_moves_on() {
         let capsule = Capsule::horizontal(0.333_051_15, 0.032_162_607).unwrap();

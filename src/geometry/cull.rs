@@ -34,13 +34,13 @@ use super::sweep::Sweep;
 /// Derivation. At every fraction `t` the body's core lies within `reach` of its centre of
 /// mass `c(t)` (`reach` is the farthest core point from the centre; rotation does not change
 /// it), and the angle model moves `c(t)` along the segment `c0 → c1` (for `t ≤ t_max`, along
-/// `c0 → c(t_max)`). So at every `t` the core
-/// distance between body and target is at least `d(segment c0 c1, target core) - reach`. The
-/// time of impact reports a hit only where the core distance comes within `target + tolerance`
-/// = `total radius + slop + slop / 4` (see [`time_of_impact`](super::time_of_impact)); if the
-/// bound stays above that, its answer is *separated*, which is returned here without the
-/// advancement. One more slop of margin covers GJK's rounding; the test is done relative to
-/// `c0` so that far from the origin no precision is lost.
+/// `c0 → c(t_max)`). So at every `t` the core distance between body and target is at least
+/// `d(segment c0 c1, target core) - reach`. The time of impact reports a hit only where the
+/// core distance comes within `target + tolerance` = `total radius + slop + slop / 4` (see
+/// [`time_of_impact`](super::time_of_impact)); if the bound stays above that, its answer is
+/// *separated*, which is returned here without the advancement. One more slop of margin covers
+/// GJK's rounding; the test is done relative to `c0` so that far from the origin no precision
+/// is lost.
 #[allow(clippy::too_many_arguments)] // the body, its sweep and interval, the target and frame
 pub(super) fn out_of_reach(
     reach: f32,
