@@ -19,7 +19,8 @@ use super::proxy::ShapeProxy;
 use super::static_set::{StaticItem, TargetFrame};
 use super::sweep::Sweep;
 use super::toi::{
-    BodyFrame, ToiConfig, ToiFailure, ToiInput, ToiState, time_of_impact, time_of_impact_framed,
+    BodyFrame, ToiConfig, ToiFailure, ToiInput, ToiOutput, ToiState, time_of_impact,
+    time_of_impact_framed,
 };
 
 /// A contact a pair test found: where (world), the unit normal toward the target, the surface
@@ -119,12 +120,139 @@ pub(super) fn pair_toi(
         target_separation: None,
     };
     let out = time_of_impact_framed(&input, body_frame, frame.toi, t_min);
-    match out.state {
-        ToiState::Separated => PairOutcome::Clear {
-            overlapping: false,
-            touch: None,
+    if let Some(settled) = settled(&out, false) {
+        return settled;
+    }
+    // A contact at the start: a hit at 0, or an overlap.
+    let overlapping = out.separation < 0.0;
+    if out.normal == Vec2::ZERO {
+        return core_fallback(body, sweep, target, slop, input);
+    }
+    // The ends of the contact patch, where the response will act: deciding at the
+    // same points as the response (not at the query's one closest point) means that
+    // a contact found approaching is one the response changes, and a contact the
+    // response has just resolved is not found approaching again. Not needed when the
+    // query's point moves away by more than the turn could make any other point of the
+    // body approach (`spread`): then no end approaches either.
+    let spread = sweep.angular_motion().abs() * 2.0 * (reach + body.proxy.radius);
+    let linear = sweep.linear_motion();
+    let turn_at = |p: Vec2| sweep.angular_motion() * left_perp(p - sweep.c0);
+    let apart = (linear + turn_at(out.point)).dot(out.normal) < -spread;
+    let patch = (known_patch.is_some() || !apart).then(|| {
+        known_patch.unwrap_or_else(|| {
+            // The poses from the rotations at hand: no sine or cosine again.
+            let q = body_frame.rotation();
+            let pose = Pose {
+                p: sweep.c0 - q.rotate(sweep.local_center),
+                q,
+            };
+            let target_pose = Pose {
+                p: target.position,
+                q: frame.toi.rotation(),
+            };
+            let contact = (out.normal, out.point);
+            contact_patch(&body.proxy, pose, &target.proxy, target_pose, contact, slop)
+        })
+    });
+    let start = Contact {
+        point: out.point,
+        normal: out.normal,
+        separation: out.separation,
+        patch,
+    };
+    let touch = Some(start);
+    let threshold = 0.01 * separation_tolerance(slop);
+    if let Some(patch) = patch
+        && patch_approaching(sweep, patch, out.normal, threshold)
+    {
+        return PairOutcome::Hit {
+            fraction: 0.0,
+            contact: start,
+            overlapping,
+            touch,
+        };
+    }
+    // Moving apart or exactly along, without turning: the core distance along a
+    // straight line to a convex set is convex in time and does not decrease at the
+    // start, so it never decreases. Nothing to stop, however deep the start.
+    // A turn so small that no point of the body moves by more than a hundredth of
+    // the tolerance (rounding leaves such spins behind) counts as none: the distance
+    // can then shrink by no more than that over the whole sweep.
+    let turn = sweep.angular_motion().abs() * reach;
+    if turn <= threshold
+        && patch.is_none_or(|patch| !patch_approaching(sweep, patch, out.normal, 0.0))
+    {
+        return PairOutcome::Clear { overlapping, touch };
+    }
+    // Turning: search the rest of the sweep with a band lowered below the start, so
+    // that the body may slide or leave but not sink (not below `-slop / 2` from a
+    // start above it). The start must stay clearly above the band, whose top is `fine`
+    // above its target: on its edge rounding decides, and in it the query hits at 0
+    // and the body is frozen, even moving away. So the target is `2 fine` below the
+    // start, floored at `-slop / 2` but never closer than `1.5 fine` to the start (a
+    // start already near the floor keeps that much room), `fine` being the query's
+    // tolerance: the slop's quarter, or a quarter of the core distance when the cores
+    // are closer than four of those, since the query never lets the cores come closer
+    // than twice its tolerance (this is what sharp bodies a little below the usual
+    // band need).
+    let tolerance = separation_tolerance(slop);
+    let start = out.separation.min(slop);
+    let core_distance = out.separation + body.proxy.radius + target.proxy.radius;
+    let finest = FINEST_TOLERANCE * tolerance;
+    if core_distance < 4.0 * finest {
+        // No band fits between the cores (a sharp corner a few micrometres from the
+        // target): the body is moved out along the normal until one does.
+        return PairOutcome::Nudge((core_distance - 8.0 * finest) * out.normal);
+    }
+    let fine = (0.25 * core_distance).clamp(finest, 0.1 * tolerance);
+    // Hits of the band land within `fine` of its target: a target below `deepest` could
+    // leave the body deeper than the slop. A start already too deep for a band above
+    // it (pressed there by repeated contacts) is moved out until one fits.
+    let deepest = -slop + 2.0 * fine;
+    if start - 1.5 * fine < deepest {
+        return PairOutcome::Nudge((start - deepest - 2.5 * fine) * out.normal);
+    }
+    input.config.linear_slop = 4.0 * fine;
+    let lowered = (start - 2.0 * fine)
+        .max(-0.5 * slop)
+        .min(start - 1.5 * fine);
+    input.config.target_separation = Some(lowered);
+    let out2 = time_of_impact_framed(&input, body_frame, frame.toi, t_min);
+    match out2.state {
+        ToiState::Separated => PairOutcome::Clear { overlapping, touch },
+        ToiState::Hit | ToiState::Overlapped => PairOutcome::Hit {
+            fraction: out2.fraction,
+            contact: Contact {
+                point: out2.point,
+                normal: if out2.normal == Vec2::ZERO {
+                    out.normal
+                } else {
+                    out2.normal
+                },
+                separation: out2.separation,
+                patch: None,
+            },
+            overlapping,
+            touch,
         },
-        ToiState::Hit if out.fraction > 0.0 => PairOutcome::Hit {
+        ToiState::Failed(failure) => PairOutcome::Failed {
+            fraction: out2.fraction,
+            failure,
+        },
+    }
+}
+
+/// The outcome a query's answer settles on its own: clear, a hit after the start, or a
+/// failure. `None` for a contact at the start (a hit at 0 or an overlap), which the caller
+/// judges.
+#[inline]
+fn settled(out: &ToiOutput, overlapping: bool) -> Option<PairOutcome> {
+    match out.state {
+        ToiState::Separated => Some(PairOutcome::Clear {
+            overlapping,
+            touch: None,
+        }),
+        ToiState::Hit if out.fraction > 0.0 => Some(PairOutcome::Hit {
             fraction: out.fraction,
             contact: Contact {
                 point: out.point,
@@ -132,134 +260,21 @@ pub(super) fn pair_toi(
                 separation: out.separation,
                 patch: None,
             },
-            overlapping: false,
+            overlapping,
             touch: None,
-        },
-        ToiState::Failed(failure) => PairOutcome::Failed {
+        }),
+        ToiState::Failed(failure) => Some(PairOutcome::Failed {
             fraction: out.fraction,
             failure,
-        },
-        ToiState::Hit | ToiState::Overlapped => {
-            let overlapping = out.separation < 0.0;
-            if out.normal == Vec2::ZERO {
-                return core_fallback(body, sweep, target, slop, input);
-            }
-            // The ends of the contact patch, where the response will act: deciding at the
-            // same points as the response (not at the query's one closest point) means that
-            // a contact found approaching is one the response changes, and a contact the
-            // response has just resolved is not found approaching again. Not needed when the
-            // query's point moves away by more than the turn could make any other point of the
-            // body approach (`spread`): then no end approaches either.
-            let spread = sweep.angular_motion().abs() * 2.0 * (reach + body.proxy.radius);
-            let linear = sweep.linear_motion();
-            let turn_at = |p: Vec2| sweep.angular_motion() * left_perp(p - sweep.c0);
-            let apart = (linear + turn_at(out.point)).dot(out.normal) < -spread;
-            let patch = (known_patch.is_some() || !apart).then(|| {
-                known_patch.unwrap_or_else(|| {
-                    // The poses from the rotations at hand: no sine or cosine again.
-                    let q = body_frame.rotation();
-                    let pose = Pose {
-                        p: sweep.c0 - q.rotate(sweep.local_center),
-                        q,
-                    };
-                    let target_pose = Pose {
-                        p: target.position,
-                        q: frame.toi.rotation(),
-                    };
-                    let contact = (out.normal, out.point);
-                    contact_patch(&body.proxy, pose, &target.proxy, target_pose, contact, slop)
-                })
-            });
-            let start = Contact {
-                point: out.point,
-                normal: out.normal,
-                separation: out.separation,
-                patch,
-            };
-            let touch = Some(start);
-            let threshold = 0.01 * separation_tolerance(slop);
-            if let Some(patch) = patch
-                && patch_approaching(sweep, patch, out.normal, threshold)
-            {
-                return PairOutcome::Hit {
-                    fraction: 0.0,
-                    contact: start,
-                    overlapping,
-                    touch,
-                };
-            }
-            // Moving apart or exactly along, without turning: the core distance along a
-            // straight line to a convex set is convex in time and does not decrease at the
-            // start, so it never decreases. Nothing to stop, however deep the start.
-            // A turn so small that no point of the body moves by more than a hundredth of
-            // the tolerance (rounding leaves such spins behind) counts as none: the distance
-            // can then shrink by no more than that over the whole sweep.
-            let turn = sweep.angular_motion().abs() * reach;
-            if turn <= threshold
-                && patch.is_none_or(|patch| !patch_approaching(sweep, patch, out.normal, 0.0))
-            {
-                return PairOutcome::Clear { overlapping, touch };
-            }
-            // Turning: search the rest of the sweep with a band lowered below the start, so
-            // that the body may slide or leave but not sink (not below `-slop / 2` from a
-            // start above it). The start must stay clearly above the band, whose top is `fine`
-            // above its target: on its edge rounding decides, and in it the query hits at 0
-            // and the body is frozen, even moving away. So the target is `2 fine` below the
-            // start, floored at `-slop / 2` but never closer than `1.5 fine` to the start (a
-            // start already near the floor keeps that much room), `fine` being the query's
-            // tolerance: the slop's quarter, or a quarter of the core distance when the cores
-            // are closer than four of those, since the query never lets the cores come closer
-            // than twice its tolerance (this is what sharp bodies a little below the usual
-            // band need).
-            let tolerance = separation_tolerance(slop);
-            let start = out.separation.min(slop);
-            let core_distance = out.separation + body.proxy.radius + target.proxy.radius;
-            let finest = FINEST_TOLERANCE * tolerance;
-            if core_distance < 4.0 * finest {
-                // No band fits between the cores (a sharp corner a few micrometres from the
-                // target): the body is moved out along the normal until one does.
-                return PairOutcome::Nudge((core_distance - 8.0 * finest) * out.normal);
-            }
-            let fine = (0.25 * core_distance).clamp(finest, 0.1 * tolerance);
-            // Hits of the band land within `fine` of its target: a target below `deepest` could
-            // leave the body deeper than the slop. A start already too deep for a band above
-            // it (pressed there by repeated contacts) is moved out until one fits.
-            let deepest = -slop + 2.0 * fine;
-            if start - 1.5 * fine < deepest {
-                return PairOutcome::Nudge((start - deepest - 2.5 * fine) * out.normal);
-            }
-            input.config.linear_slop = 4.0 * fine;
-            let lowered = (start - 2.0 * fine)
-                .max(-0.5 * slop)
-                .min(start - 1.5 * fine);
-            input.config.target_separation = Some(lowered);
-            let out2 = time_of_impact_framed(&input, body_frame, frame.toi, t_min);
-            match out2.state {
-                ToiState::Separated => PairOutcome::Clear { overlapping, touch },
-                ToiState::Hit | ToiState::Overlapped => PairOutcome::Hit {
-                    fraction: out2.fraction,
-                    contact: Contact {
-                        point: out2.point,
-                        normal: if out2.normal == Vec2::ZERO {
-                            out.normal
-                        } else {
-                            out2.normal
-                        },
-                        separation: out2.separation,
-                        patch: None,
-                    },
-                    overlapping,
-                    touch,
-                },
-                ToiState::Failed(failure) => PairOutcome::Failed {
-                    fraction: out2.fraction,
-                    failure,
-                },
-            }
-        }
+        }),
+        ToiState::Hit | ToiState::Overlapped => None,
     }
 }
 
+/// Box2D's fallback for a body whose core overlaps the target's at the start: the same query
+/// with a small circle at the centre of mass ([`BodyState::core_radius`]). Motion that drives
+/// that circle in is stopped at 0, and so is motion that takes a centre already inside a
+/// polygon target further in across its nearest face ([`exit_face`]); other motion goes on.
 fn core_fallback(
     body: &BodyState,
     sweep: &Sweep,
@@ -269,73 +284,54 @@ fn core_fallback(
 ) -> PairOutcome {
     input.proxy_a = ShapeProxy::from_parts(&[body.local_center], body.core_radius);
     let out = time_of_impact(&input);
-    match out.state {
-        ToiState::Separated => PairOutcome::Clear {
+    if let Some(settled) = settled(&out, true) {
+        return settled;
+    }
+    // A contact at the start: a hit at 0, or an overlap.
+    if out.normal != Vec2::ZERO
+        && approaching(
+            sweep,
+            out.point,
+            out.normal,
+            0.01 * separation_tolerance(slop),
+        )
+    {
+        // The cores overlap: deeper than any band, the separation counts as minus the
+        // slop (pushed out at the most, see `solve_body`).
+        let contact = Contact {
+            point: out.point,
+            normal: out.normal,
+            separation: -slop,
+            patch: None,
+        };
+        PairOutcome::Hit {
+            fraction: 0.0,
+            contact,
+            overlapping: true,
+            touch: Some(contact),
+        }
+    } else if out.normal == Vec2::ZERO
+        && let Some((exit, depth)) = exit_face(target, sweep.c0)
+        && approaching(sweep, sweep.c0, -exit, 0.01 * separation_tolerance(slop))
+    {
+        // The centre itself is inside the target: moving it further in across the face
+        // it is nearest to is going deeper. Stopped, at the point of that face.
+        let contact = Contact {
+            point: sweep.c0 + depth * exit,
+            normal: -exit,
+            separation: -slop,
+            patch: None,
+        };
+        PairOutcome::Hit {
+            fraction: 0.0,
+            contact,
+            overlapping: true,
+            touch: Some(contact),
+        }
+    } else {
+        PairOutcome::Clear {
             overlapping: true,
             touch: None,
-        },
-        ToiState::Hit if out.fraction > 0.0 => PairOutcome::Hit {
-            fraction: out.fraction,
-            contact: Contact {
-                point: out.point,
-                normal: out.normal,
-                separation: out.separation,
-                patch: None,
-            },
-            overlapping: true,
-            touch: None,
-        },
-        ToiState::Failed(failure) => PairOutcome::Failed {
-            fraction: out.fraction,
-            failure,
-        },
-        ToiState::Hit | ToiState::Overlapped => {
-            if out.normal != Vec2::ZERO
-                && approaching(
-                    sweep,
-                    out.point,
-                    out.normal,
-                    0.01 * separation_tolerance(slop),
-                )
-            {
-                // The cores overlap: deeper than any band, the separation counts as minus the
-                // slop (pushed out at the most, see `solve_body`).
-                let contact = Contact {
-                    point: out.point,
-                    normal: out.normal,
-                    separation: -slop,
-                    patch: None,
-                };
-                PairOutcome::Hit {
-                    fraction: 0.0,
-                    contact,
-                    overlapping: true,
-                    touch: Some(contact),
-                }
-            } else if out.normal == Vec2::ZERO
-                && let Some((exit, depth)) = exit_face(target, sweep.c0)
-                && approaching(sweep, sweep.c0, -exit, 0.01 * separation_tolerance(slop))
-            {
-                // The centre itself is inside the target: moving it further in across the face
-                // it is nearest to is going deeper. Stopped, at the point of that face.
-                let contact = Contact {
-                    point: sweep.c0 + depth * exit,
-                    normal: -exit,
-                    separation: -slop,
-                    patch: None,
-                };
-                PairOutcome::Hit {
-                    fraction: 0.0,
-                    contact,
-                    overlapping: true,
-                    touch: Some(contact),
-                }
-            } else {
-                PairOutcome::Clear {
-                    overlapping: true,
-                    touch: None,
-                }
-            }
         }
     }
 }
