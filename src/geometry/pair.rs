@@ -287,7 +287,23 @@ fn core_fallback(
     if let Some(settled) = settled(&out, true) {
         return settled;
     }
-    // A contact at the start: a hit at 0, or an overlap.
+    // A contact at the start: a hit at 0, or an overlap. The cores overlap: deeper than any
+    // band, a contact's separation counts as minus the slop (pushed out at the most, see
+    // `solve_body`).
+    let stop = |point: Vec2, normal: Vec2| {
+        let contact = Contact {
+            point,
+            normal,
+            separation: -slop,
+            patch: None,
+        };
+        PairOutcome::Hit {
+            fraction: 0.0,
+            contact,
+            overlapping: true,
+            touch: Some(contact),
+        }
+    };
     if out.normal != Vec2::ZERO
         && approaching(
             sweep,
@@ -296,38 +312,14 @@ fn core_fallback(
             0.01 * separation_tolerance(slop),
         )
     {
-        // The cores overlap: deeper than any band, the separation counts as minus the
-        // slop (pushed out at the most, see `solve_body`).
-        let contact = Contact {
-            point: out.point,
-            normal: out.normal,
-            separation: -slop,
-            patch: None,
-        };
-        PairOutcome::Hit {
-            fraction: 0.0,
-            contact,
-            overlapping: true,
-            touch: Some(contact),
-        }
+        stop(out.point, out.normal)
     } else if out.normal == Vec2::ZERO
         && let Some((exit, depth)) = exit_face(target, sweep.c0)
         && approaching(sweep, sweep.c0, -exit, 0.01 * separation_tolerance(slop))
     {
         // The centre itself is inside the target: moving it further in across the face
         // it is nearest to is going deeper. Stopped, at the point of that face.
-        let contact = Contact {
-            point: sweep.c0 + depth * exit,
-            normal: -exit,
-            separation: -slop,
-            patch: None,
-        };
-        PairOutcome::Hit {
-            fraction: 0.0,
-            contact,
-            overlapping: true,
-            touch: Some(contact),
-        }
+        stop(sweep.c0 + depth * exit, -exit)
     } else {
         PairOutcome::Clear {
             overlapping: true,
