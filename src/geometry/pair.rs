@@ -395,3 +395,119 @@ pub(super) fn contact_patch(
     let base = tangent.dot(point);
     (point + (lo - base) * tangent, point + (hi - base) * tangent)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::{LINEAR_SLOP, Polygon, Shape};
+
+    /// The pair test of a unit box (centre at `height`, moving by `motion` over the sweep,
+    /// not turning) against a floor whose top face is at y = 0.
+    fn box_over_floor(height: f32, motion: Vec2) -> PairOutcome {
+        let floor = StaticItem {
+            proxy: Shape::from(Polygon::rectangle(5.0, 0.5).unwrap()).proxy(),
+            position: Vec2::new(0.0, -0.5),
+            angle: 0.0,
+        };
+        let proxy = Shape::from(Polygon::rectangle(0.5, 0.5).unwrap()).proxy();
+        let start = Vec2::new(0.0, height);
+        let sweep = Sweep::new(Vec2::ZERO, start, 0.0, start + motion, 0.0);
+        let body = BodyState {
+            proxy,
+            local_center: Vec2::ZERO,
+            mass: 1.0,
+            inertia: 0.1,
+            restitution: 0.0,
+            friction: 0.0,
+            sweep,
+            velocity: None,
+            core_radius: 0.125,
+        };
+        let reach = proxy.max_distance_from(Vec2::ZERO);
+        pair_toi(
+            &body,
+            reach,
+            &sweep,
+            BodyFrame::with_reach(&sweep, reach),
+            &floor,
+            &TargetFrame::new(&floor),
+            LINEAR_SLOP,
+            (0.0, 1.0),
+            None,
+        )
+    }
+
+    /// A body that starts the sweep resting on a target is hit at 0 when driven into it, and is
+    /// clear when it leaves or slides along it; either way the contact is reported as a touch.
+    #[test]
+    fn a_start_contact_is_a_hit_only_when_driven_in() {
+        let resting = 0.5 + LINEAR_SLOP;
+        let PairOutcome::Hit {
+            fraction: 0.0,
+            contact,
+            overlapping: false,
+            touch: Some(_),
+        } = box_over_floor(resting, Vec2::new(0.0, -0.1))
+        else {
+            panic!("driven in, not hit at 0");
+        };
+        assert!(contact.normal.distance(Vec2::NEG_Y) < 1e-6, "{contact:?}");
+        for motion in [Vec2::new(0.0, 0.1), Vec2::new(0.3, 0.0)] {
+            assert!(
+                matches!(
+                    box_over_floor(resting, motion),
+                    PairOutcome::Clear {
+                        overlapping: false,
+                        touch: Some(_)
+                    }
+                ),
+                "{motion}"
+            );
+        }
+    }
+
+    /// Cores that overlap at the start fall back to a circle at the centre of mass: it is
+    /// searched like any body, and a centre inside the target is stopped only when it moves
+    /// further in across the nearest face.
+    #[test]
+    fn overlapping_cores_fall_back_to_a_circle_at_the_centre() {
+        // The circle (radius 0.125) 0.075 m above the floor: hit a slop above it.
+        let PairOutcome::Hit {
+            fraction,
+            overlapping: true,
+            touch: None,
+            ..
+        } = box_over_floor(0.2, Vec2::new(0.0, -0.1))
+        else {
+            panic!("the circle was not hit");
+        };
+        assert!((fraction - 0.7).abs() < 0.02, "{fraction}");
+        assert!(matches!(
+            box_over_floor(0.2, Vec2::new(0.0, 0.1)),
+            PairOutcome::Clear {
+                overlapping: true,
+                touch: None
+            }
+        ));
+        // The centre 0.1 m inside the floor: stopped at the top face when moving down.
+        let PairOutcome::Hit {
+            fraction: 0.0,
+            contact,
+            overlapping: true,
+            touch: Some(_),
+        } = box_over_floor(-0.1, Vec2::new(0.0, -0.1))
+        else {
+            panic!("the centre went further in");
+        };
+        assert!(contact.point.distance(Vec2::ZERO) < 1e-6, "{contact:?}");
+        assert!(contact.normal.distance(Vec2::NEG_Y) < 1e-6, "{contact:?}");
+        assert_eq!(contact.separation, -LINEAR_SLOP);
+        assert!(matches!(
+            box_over_floor(-0.1, Vec2::new(0.1, 0.0)),
+            PairOutcome::Clear {
+                overlapping: true,
+                touch: None
+            }
+        ));
+    }
+}

@@ -233,3 +233,62 @@ impl TargetFrame {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::test_support::{Rng, target};
+    use crate::geometry::{Capsule, Circle, Polygon, Segment, Shape};
+
+    /// A record gives back the frame it was built from, bit for bit: the solver reads frames
+    /// from the records instead of computing them per pair.
+    #[test]
+    fn a_record_gives_back_its_frame() {
+        let mut rng = Rng(3);
+        for _ in 0..1_000 {
+            let item = target(&mut rng);
+            let frame = TargetFrame::new(&item);
+            let back = TargetRecord::new(&item).frame();
+            let bits = |q: Rot| (q.c.to_bits(), q.s.to_bits());
+            assert_eq!(bits(back.toi.rotation()), bits(frame.toi.rotation()));
+            assert_eq!(back.toi.reach().to_bits(), frame.toi.reach().to_bits());
+            assert_eq!(back.core, frame.core);
+            assert_eq!(back.core_is_box, frame.core_is_box);
+        }
+    }
+
+    /// Cores whose points are the corners of their bounds (a rectangle, a segment along an
+    /// axis, a point) are boxes; others are not.
+    #[test]
+    fn box_cores_are_recognised() {
+        let core_is_box = |shape: Shape| {
+            let item = StaticItem {
+                proxy: shape.proxy(),
+                position: Vec2::new(1.0, 2.0),
+                angle: 0.7,
+            };
+            TargetFrame::new(&item).core_is_box
+        };
+        assert!(core_is_box(Polygon::rectangle(0.5, 0.2).unwrap().into()));
+        assert!(core_is_box(Circle::new(0.3).unwrap().into()));
+        assert!(core_is_box(Capsule::horizontal(0.5, 0.1).unwrap().into()));
+        assert!(!core_is_box(Polygon::regular(5, 0.5, 0.0).unwrap().into()));
+        let tilted = Segment::new(Vec2::ZERO, Vec2::new(1.0, 1.0)).unwrap();
+        assert!(!core_is_box(tilted.into()));
+    }
+
+    /// `disable` marks one target until the next rebuild; an index out of range is ignored.
+    #[test]
+    fn disable_lasts_until_the_next_rebuild() {
+        let mut rng = Rng(5);
+        let items: Vec<StaticItem> = (0..4).map(|_| target(&mut rng)).collect();
+        let mut set = StaticSet::default();
+        set.rebuild(items.iter().copied());
+        set.disable(2);
+        set.disable(99);
+        let disabled: Vec<bool> = set.records().iter().map(|r| r.disabled).collect();
+        assert_eq!(disabled, [false, false, true, false]);
+        set.rebuild(items);
+        assert!(set.records().iter().all(|r| !r.disabled));
+    }
+}
