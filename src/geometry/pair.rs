@@ -1,7 +1,8 @@
 //! The time of impact of one body against one target, as the solver asks it ([`pair_toi`]):
-//! the culling tests first, then the query of [`super::toi`] (bilateral advancement, Catto,
-//! "Continuous Collision", GDC 2013) over the interval they leave, and the handling of a body
-//! that starts the sweep touching or inside the target.
+//! the out-of-reach bound first ([`out_of_reach`]), then the query of [`super::toi`]
+//! (bilateral advancement, Catto, "Continuous Collision", GDC 2013) over the interval the
+//! solver passes, and the handling of a body that starts the sweep touching or inside the
+//! target.
 //!
 //! A start contact is judged at the ends of its contact patch ([`contact_patch`]), the points
 //! where the response will act, so a contact found approaching is one the response changes.

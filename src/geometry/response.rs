@@ -1,8 +1,9 @@
 //! The impulse response at a contact against an immovable target: one contact point
 //! ([`contact_response`]) or the two ends of a contact patch ([`patch_response`], Box2D's block
-//! solver for a two-point manifold), each a normal impulse with restitution, Coulomb friction
-//! at the contact, and a last inelastic normal impulse so that friction's turn leaves no end
-//! approaching. The derivations are on the two functions.
+//! solver for a two-point manifold, falling back to one impulse where two would add energy),
+//! each a normal impulse with restitution, Coulomb friction, and a last inelastic normal
+//! impulse so that friction's turn leaves no end approaching. The derivations are on the two
+//! functions.
 //!
 //! Computed in `f64` and rounded once to `f32`: any finite input gives a finite answer or an
 //! error ([`ToiFailure`]), never NaN or a panic.
