@@ -15,16 +15,14 @@
 //! * **A four-wide copy for the queries.** After each build or refit the binary tree is folded
 //!   into nodes of up to four children (every other level), their packed boxes transposed so
 //!   that one four-lane comparison per coordinate tests all four: half the levels, and half
-//!   the unpredictable branches, of a binary walk (10 % faster queries on 1,000 items, 26 % on
-//!   100,000, BENCHMARKS.md).
+//!   the unpredictable branches, of a binary walk.
 //! * **Leaves of up to [`LEAF_MAX_ITEMS`] items**, whose boxes and ids are stored contiguously in
 //!   leaf order, so scanning a leaf is a linear read with no indirection. The wide copy keeps
 //!   each leaf's boxes transposed in blocks of four, tested like a wide node's children: a
-//!   leaf of 16 is four comparisons, not sixteen (queries 15 % faster, BENCHMARKS.md).
+//!   leaf of 16 is four comparisons, not sixteen.
 //! * **Ids beside the boxes.** Each block of four items carries their ids, so a hit reads its
-//!   id from the lines the scan already requested. Kept in an array of their own, the ids were
-//!   one more cache miss per hit: 19 % of the query's time at 50,000 bodies over 100,000
-//!   statics (`perf annotate`); moving them in made that step 4 % faster (BENCHMARKS.md).
+//!   id from the lines the scan already requested instead of missing once more in an array of
+//!   ids.
 //! * **Queries side by side.** [`Bvh::query_group`] walks up to [`QUERY_GROUP`] queries in
 //!   turn, one node each. On a large tree each level of a walk is a cache miss that the next
 //!   level waits for; walks of different queries do not wait on each other, so their misses
@@ -49,13 +47,9 @@ use super::shape::Aabb;
 /// The most items a leaf holds; a node is split exactly when it has more.
 ///
 /// Testing a leaf's boxes is a linear scan whose branches are almost always "miss" and so well
-/// predicted, while every level of the tree costs a hard-to-predict branch and often a cache
-/// miss. Measured on the bench scene (queries per 10,000, 1k and 100k items), leaves of 16
-/// beat 4 by about 20 % and 8 by about 10 %; 32 and 64 were no better. Letting SAH stop
-/// early (a leaf when splitting does not pay) made the trees deeper and the queries slower.
-/// Since leaves are tested in blocks of four ([`Block`]), 8 was measured again: the BVH
-/// bench's queries on 1k items got 16 % faster, but the scene bench's broad phase (where the
-/// tree is less warm in cache) 3 % slower, and builds 28 % slower; 16 stays.
+/// predicted (and, in blocks of four ([`Block`]), four boxes a comparison), while every level
+/// of the tree costs a hard-to-predict branch and often a cache miss: so leaves are large, and
+/// SAH never stops early to make a leaf, which would make the tree deeper.
 const LEAF_MAX_ITEMS: usize = 16;
 
 /// Bins per axis of the SAH build. Sixteen is the usual sweet spot: more bins barely improve
@@ -66,8 +60,7 @@ const SAH_BINS: usize = 16;
 ///
 /// SAH can peel off a few items per level on adversarial input (for example exponentially
 /// spaced boxes), which would make the tree arbitrarily deep. Real levels stay far shallower
-/// (15 levels for the 100,000 items of the bench scene), so the limit only changes
-/// pathological trees.
+/// (about 15 levels for 100,000 items), so the limit only changes pathological trees.
 const SAH_MAX_DEPTH: u32 = 48;
 
 /// Slots in the traversal stack.
@@ -80,21 +73,17 @@ const STACK_SIZE: usize = SAH_MAX_DEPTH as usize + 32;
 
 const _: () = assert!(LEAF_MAX_ITEMS >= 4 && STACK_SIZE >= SAH_MAX_DEPTH as usize + 30);
 
-/// Binary depth below which the walk uses a short stack (every tree of real levels): zeroing
-/// a stack sized for [`STACK_SIZE`] on every query was 6 % of its instructions.
+/// Binary depth below which the walk uses a short stack (every tree of real levels), so that
+/// a query does not zero a stack sized for [`STACK_SIZE`].
 const SHORT_STACK_DEPTH: usize = 32;
 
-/// How many queries [`Bvh::query_group`] walks at once.
-///
-/// Measured on the scene bench at 50,000 bodies over 100,000 statics: 8 made the broad phase
-/// 3-6 % faster than 4, within the noise of the whole step, for twice the stack; 2 gave less
-/// than half of 4's gain.
+/// How many queries [`Bvh::query_group`] walks at once: enough walks in flight for their cache
+/// misses to overlap; more would double the stacks for no gain beyond the noise.
 pub const QUERY_GROUP: usize = 4;
 
 /// From this many items on, [`Bvh::query_group`] walks its queries side by side. A smaller
 /// tree stays in cache, there are few misses to overlap, and the group's bookkeeping (a stack
-/// and a hit list per query, kept in turn) is what is left: on the BVH bench's 1,000 items,
-/// queries in groups took 544 µs against 465 µs one at a time.
+/// and a hit list per query, kept in turn) would only slow the walks down.
 const GROUP_MIN_ITEMS: usize = 4096;
 
 /// How many hits of one query [`Bvh::query_group`] keeps while walking it beside the others;
@@ -102,7 +91,8 @@ const GROUP_MIN_ITEMS: usize = 4096;
 const GROUP_HITS: usize = 32;
 
 /// From this many items on, the build first sorts them along a Morton curve (see
-/// [`morton_sort`]). Below, the sort costs more than it saves (about 15 % slower at 1,000).
+/// [`morton_sort`]). Below, the tree stays in cache anyway and the sort costs more than it
+/// saves.
 const MORTON_SORT_MIN_ITEMS: usize = 4096;
 
 /// The most items one build accepts: node indices are `u32` and a tree of `n` leaves has fewer
@@ -815,7 +805,7 @@ impl Bvh {
     }
 
     /// Depth of the deepest leaf (0 for a single leaf or an empty tree). Bounded by the build:
-    /// at most 78, whatever the input (15 for the bench's 100,000-item level).
+    /// at most 78, whatever the input (about 15 for a level of 100,000 items).
     pub fn depth(&self) -> usize {
         self.depth as usize
     }
@@ -853,7 +843,7 @@ fn split(range: &mut [BuildItem], extent: &Extent, depth: u32) -> (usize, Extent
 ///
 /// This changes no split: SAH bins and the median are order-independent. It makes the items
 /// of every node spatially coherent in memory, so the partition's branches become predictable
-/// and its reads hit cache; on 100,000 items it saves about a quarter of the build time. Keys
+/// and its reads hit cache. Keys
 /// end with the item's position, so equal codes keep their order and the sort is total.
 fn morton_sort(
     items: &mut Vec<BuildItem>,

@@ -34,8 +34,10 @@ pub const TOI_MAX_ITERATIONS: u32 = 200;
 
 /// The largest number of iterations of the one-dimensional root finder per push-back step.
 ///
-/// Alternating bisection and false position reaches the `slop / 4` tolerance in well under 30
-/// iterations on a unit interval even when the separation function is very flat.
+/// The root finder is never slower than alternating bisection and false position (its
+/// safeguard bisects whenever two steps have not halved the bracket), which reaches the
+/// `slop / 4` tolerance in well under 30 iterations on a unit interval even when the
+/// separation function is very flat.
 pub const ROOT_MAX_ITERATIONS: u32 = 50;
 
 /// The largest number of extra separation-function evaluations one certification may spend
@@ -48,21 +50,17 @@ pub const CERTIFY_MAX_EVALUATIONS: u32 = 24;
 /// The time of impact itself resolves `slop / 4`, but the pose it hands back is rounded to the
 /// spacing at every step, and the solver works on sub-millimetre differences of those poses (a
 /// resting body's start separation, the band of a turning body), so the poses must be far
-/// finer. Measured with the arena (500 bodies of every shape, 1 cm walls, slop 5 mm, gravity,
-/// 300 steps, both resolution modes) shifted away from the origin, 60 seeds per position:
-/// where the spacing is `slop / 82` (2^-14 m, the arena centred at 964 or 1,000 m) no body
-/// escapes or ends a step deeper than the slop; at `slop / 41` (2^-13 m, centred at 1,988 or
-/// 2,000 m) 1 to 4 seeds of 60 end a step up to 17 cm deep in a target; at `slop / 20`
-/// (3,000 m) 3 of 60, one with a body escaping; at `slop / 10` (6,000 m) 12 runs of 120, 5
-/// with escapes. 64 is the power of two that keeps the passing binade and leaves out the
-/// failing one, a factor of two of margin; a power of two, so that `slop / 64` is exact.
+/// finer. 64 admits the coarsest spacing at which the containment arena, shifted away from the
+/// origin, stays within the slop (`slop / 82`) and leaves out the next, twice as coarse, at
+/// which it does not (BENCHMARKS.md, decisions); a power of two, so that `slop / 64` is exact.
 pub const SLOP_PER_COORDINATE_SPACING: f32 = 64.0;
 
 /// The largest magnitude of any world coordinate the plugin accepts for a given slop (in the
 /// slop's length unit, metres by default): the largest power of two below which the `f32`
 /// spacing is at most `slop / SLOP_PER_COORDINATE_SPACING`, and never more than
-/// [`MAX_WORLD_COORDINATE`] (the time of impact's own bound). A body reaching beyond it, at the start or the end of a step,
-/// is refused with `CcdError::CoordinatesTooLarge`; a static reaching beyond it is ignored.
+/// [`MAX_WORLD_COORDINATE`] (the time of impact's own bound). A body reaching beyond it, at
+/// the start or the end of a step, is refused with `CcdError::CoordinatesTooLarge`; a static
+/// reaching beyond it is ignored.
 ///
 /// Derivation: an `f32` with `|x|` in `[2^e, 2^(e+1))` has 23 fraction bits, so neighbouring
 /// values there are `2^(e-23)` apart. The spacing is at most `s = slop / 64` for every

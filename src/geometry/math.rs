@@ -113,9 +113,9 @@ pub fn cross(a: Vec2, b: Vec2) -> f32 {
 /// arithmetic.
 ///
 /// Why not `f32::atan2`: the plugin takes two per body per step to read angles off
-/// `Transform`s, and libm's took 7 % of a 10,000-body step (`perf`, BENCHMARKS.md); libm's
-/// last bits also differ between platforms and versions, these are the same everywhere (IEEE
-/// `f32` operations only, no fused multiply-add).
+/// `Transform`s, where a libm call is a large share of the record pass; libm's last bits also
+/// differ between platforms and versions, these are the same everywhere (IEEE `f32`
+/// operations only, no fused multiply-add).
 ///
 /// Cephes' `atanf` (S. L. Moshier, *Methods and Programs for Mathematical Functions*, 1989):
 /// `t = |y / x|` is reduced to `[0, tan(π/8)]` through `atan t = π/2 - atan(1/t)` above
@@ -134,9 +134,8 @@ pub fn atan2(y: f32, x: f32) -> f32 {
     // One division whatever the range, on |x| and |y| directly: with t = |y / x|,
     // -1 / t = -|x| / |y| and (t - 1) / (t + 1) = (|y| - |x|) / (|y| + |x|). The range is
     // picked by comparisons without dividing, and by bit-mask selects ([`select`]): angles
-    // read off bodies are random, and written as `if`s the compiler branched, mispredicting
-    // for about half the bodies (10,000 bodies, the record pass: 19 ns a body with the
-    // branches, 15 with the selects, 2 for the same pass reading no angle).
+    // read off bodies are random, so branches on the range would mispredict for about half of
+    // them.
     let (ax, ay) = (x.abs(), y.abs());
     let big = ay > TAN_3PI_8 * ax;
     let mid = ay > TAN_PI_8 * ax;

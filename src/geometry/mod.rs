@@ -1,16 +1,31 @@
-//! The geometry layer: shapes, GJK, sweeps, time of impact and the static bounding-volume
-//! hierarchy. Plain Rust with no ECS imports, so it can be used (and tested) on its own.
+//! The geometry layer: shapes, GJK, sweeps, time of impact, the static bounding-volume
+//! hierarchy and the per-body solver. Plain Rust with no ECS imports, so it can be used (and
+//! tested) on its own.
+//!
+//! The solver's parts, one file each: `static_set` (the targets, their hierarchy and per-target
+//! records), `cull` (the bounds that rule pairs out before the time of impact), `pair` (the
+//! time of impact of one body against one target, start contacts included), `response` (the
+//! contact impulse) and `body_solver` (one body's step: sub-steps, clamping, outcome).
 
+mod body_solver;
 mod bvh;
 pub mod constants;
+mod cull;
 mod gjk;
 mod math;
+mod pair;
 mod proxy;
-mod resolve;
+mod response;
 mod shape;
+mod static_set;
 mod sweep;
+#[cfg(test)]
+mod test_support;
 mod toi;
 
+pub use body_solver::{
+    BodyOutcome, BodyState, ImpactRecord, ResolveMode, SolveSettings, solve_body,
+};
 pub use bvh::{Bvh, QUERY_GROUP};
 pub use constants::{
     LINEAR_SLOP, MAX_POLYGON_VERTICES, MAX_WORLD_COORDINATE, SLOP_PER_COORDINATE_SPACING,
@@ -19,10 +34,8 @@ pub use constants::{
 pub use gjk::{DistanceInput, DistanceOutput, SimplexCache, shape_distance};
 pub use math::{Pose, Rot, atan2, cross, left_perp, right_perp};
 pub use proxy::ShapeProxy;
-pub use resolve::{
-    BodyOutcome, BodyState, ImpactRecord, ResolveMode, SolveSettings, StaticItem, StaticSet,
-    contact_response, solve_body,
-};
+pub use response::contact_response;
 pub use shape::{Aabb, Capsule, Circle, MassProperties, Polygon, Segment, Shape, ShapeError};
+pub use static_set::{StaticItem, StaticSet};
 pub use sweep::Sweep;
 pub use toi::{ToiConfig, ToiFailure, ToiInput, ToiOutput, ToiState, time_of_impact};

@@ -665,7 +665,7 @@ fn polygon_mass(p: &Polygon, density: f32) -> MassProperties {
     // the size is that noise, and is snapped to zero: physically nothing (a lever arm below
     // 1e-6 of the body), but it keeps the body's centre of mass on its origin, where the
     // sweeps and the write-back skip rotating the offset (two sines and cosines per body per
-    // step, for three bodies in five of the bench scene).
+    // step).
     let size = v[..n]
         .iter()
         .fold(0.0f32, |m, p| m.max(p.abs().max_element()));
@@ -692,8 +692,8 @@ mod tests {
 
     #[test]
     fn centred_polygons_have_their_centre_of_mass_exactly_on_the_origin() {
-        // Without the snap, these come out 1e-9 to 3e-8 m off (measured), which costs every
-        // sweep of such a body two sines and cosines.
+        // Without the snap, these come out a few ulps of their size off the origin, which
+        // costs every sweep of such a body two sines and cosines.
         let mut shapes = vec![
             Shape::from(Polygon::rectangle(0.17, 0.23).expect("valid")),
             Shape::from(Polygon::rectangle(0.37, 0.005).expect("valid")),

@@ -1,0 +1,294 @@
+//! The static world a body is swept against: the targets ([`StaticItem`]), the
+//! bounding-volume hierarchy over their boxes (the broad phase's index), and per target one
+//! record of what every pair test reads of it.
+//!
+//! The record ([`TargetRecord`]) is computed once when the set is rebuilt, not once per pair:
+//! the target's rotation (no sine or cosine per pair), its reach and the bounds of its core in
+//! its own frame, the box the culling tests clip against. It fills one 64-byte cache line, so a
+//! candidate the ordering test rules out costs one line read. A target removed while a step is
+//! under way is marked disabled in its record ([`StaticSet::disable`]) until the next rebuild.
+
+use glam::Vec2;
+
+use super::bvh::Bvh;
+use super::math::{Pose, Rot};
+use super::proxy::ShapeProxy;
+use super::shape::Aabb;
+use super::sweep::Sweep;
+use super::toi::BodyFrame;
+
+/// One static target.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StaticItem {
+    /// Shape in the target's frame.
+    pub proxy: ShapeProxy,
+    /// Where the target is.
+    pub position: Vec2,
+    /// Its angle (radians).
+    pub angle: f32,
+}
+
+/// Fewest targets for which [`StaticSet::touch`] is used: 4,096 targets' records (148 bytes
+/// each: the [`TargetRecord`] line, 64, and the shape, 84) take 592 KiB, more than half of a
+/// 1 MiB L2 cache, which the step's own data shares. Only speed depends on it.
+const TOUCH_MIN_TARGETS: usize = 4096;
+
+/// The static world: targets and their bounding-volume hierarchy.
+#[derive(Clone, Debug, Default)]
+pub struct StaticSet {
+    items: Vec<StaticItem>,
+    /// Per target, what ordering a body's candidates and every pair test need of it (index
+    /// as `items`), one cache line each.
+    records: Vec<TargetRecord>,
+    bvh: Bvh,
+    scratch: Vec<(u32, Aabb)>,
+}
+
+impl StaticSet {
+    /// Whether [`Self::touch`] pays: the per-target records outgrow a core's L2 cache from a
+    /// few thousand targets on ([`TOUCH_MIN_TARGETS`]). Below that they stay cached from step
+    /// to step and touching them first is only extra work.
+    pub(crate) fn worth_touching(&self) -> bool {
+        self.items.len() >= TOUCH_MIN_TARGETS
+    }
+
+    /// Loads one word of each record a pair test reads of every target in `targets` (its
+    /// [`TargetRecord`] and its shape) and returns them folded together, for the caller to
+    /// pass to `black_box` so that the loads stay. A software prefetch without `unsafe`: done
+    /// for a batch of bodies before their pair tests, the loads are independent, so their
+    /// cache misses overlap instead of each stalling a test in turn.
+    pub(crate) fn touch(&self, targets: &[u32]) -> u32 {
+        let mut folded = 0u32;
+        for &i in targets {
+            let i = i as usize;
+            if let (Some(record), Some(item)) = (self.records.get(i), self.items.get(i)) {
+                folded ^= record.key.radius.to_bits() ^ item.position.x.to_bits();
+            }
+        }
+        folded
+    }
+
+    /// Replaces every target; target `i` of the slice gets index `i`.
+    pub fn rebuild(&mut self, items: impl IntoIterator<Item = StaticItem>) {
+        self.items.clear();
+        self.items.extend(items);
+        self.records.clear();
+        self.records
+            .extend(self.items.iter().map(TargetRecord::new));
+        self.scratch.clear();
+        for (i, item) in self.items.iter().enumerate() {
+            let pose = Pose::new(item.position, item.angle);
+            self.scratch.push((i as u32, item.proxy.aabb(pose)));
+        }
+        self.bvh.build(&self.scratch);
+    }
+
+    /// Stops target `index` being hit until the set is rebuilt (a target removed while a step
+    /// is under way). An index out of range is ignored.
+    pub fn disable(&mut self, index: usize) {
+        if let Some(record) = self.records.get_mut(index) {
+            record.disabled = true;
+        }
+    }
+
+    /// The targets.
+    pub fn items(&self) -> &[StaticItem] {
+        &self.items
+    }
+
+    /// The hierarchy over the targets.
+    pub fn bvh(&self) -> &Bvh {
+        &self.bvh
+    }
+
+    /// Per target, what the pair tests read of it (index as [`Self::items`]).
+    #[inline]
+    pub(super) fn records(&self) -> &[TargetRecord] {
+        &self.records
+    }
+
+    /// Appends to `out` the targets whose boxes overlap the swept box of `proxy` over `sweep`
+    /// (grown by `margin`), in ascending index order.
+    pub fn candidates(&self, proxy: &ShapeProxy, sweep: &Sweep, margin: f32, out: &mut Vec<u32>) {
+        self.candidates_in(proxy.swept_aabb(sweep), margin, out);
+    }
+
+    /// The ids of the statics whose boxes overlap `bounds` grown by `margin` (m), in ascending
+    /// order, appended to `out`: [`StaticSet::candidates`] for a swept box computed elsewhere.
+    pub fn candidates_in(&self, bounds: Aabb, margin: f32, out: &mut Vec<u32>) {
+        self.bvh.query(&bounds.expanded(margin), out);
+    }
+
+    /// [`StaticSet::candidates_in`] for several swept boxes at once (already grown by the
+    /// margin), walked side by side ([`Bvh::query_group`]): the candidates of `bounds[0]`,
+    /// then those of `bounds[1]`, … are appended to `out`, and `counts[i]` is set to how many
+    /// `bounds[i]` has.
+    ///
+    /// # Panics
+    ///
+    /// If `counts` is shorter than `bounds`.
+    pub fn candidates_group(&self, bounds: &[Aabb], out: &mut Vec<u32>, counts: &mut [u32]) {
+        self.bvh.query_group(bounds, out, counts);
+    }
+}
+
+/// What the pair tests need of a target besides its [`StaticItem`], computed once when the
+/// set is rebuilt instead of once per pair: its rotation (a sine and a cosine), its reach and
+/// the bounds of its core in its own frame.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct TargetFrame {
+    /// Its rotation and reach, as the time of impact takes them.
+    pub(super) toi: BodyFrame,
+    /// Bounds of the core points (radius not included) in the target's frame.
+    pub(super) core: Aabb,
+    /// The core is exactly that box: its points are the box's corners (a rectangle in its
+    /// frame, a segment along an axis, a point), so distances to it have a closed form.
+    pub(super) core_is_box: bool,
+}
+
+/// What [`reach_interval`](super::cull::reach_interval) needs of a target, packed in 36 bytes
+/// (at the head of its [`TargetRecord`]): every candidate of the broad phase goes through that
+/// test and most stop there, so this is what the solve reads of most targets. With 100,000
+/// statics the targets are far apart in memory and each read of [`StaticItem`] (two cache
+/// lines) is a miss; this one line is read instead.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct TargetKey {
+    pub(super) position: Vec2,
+    pub(super) rotation: Rot,
+    /// Bounds of the core points in the target's frame ([`TargetFrame::core`]).
+    pub(super) core: Aabb,
+    /// The target's rounding radius (m).
+    pub(super) radius: f32,
+}
+
+impl TargetKey {
+    pub(super) fn new(item: &StaticItem, frame: &TargetFrame) -> Self {
+        Self {
+            position: item.position,
+            rotation: frame.toi.rotation(),
+            core: frame.core,
+            radius: item.proxy.radius,
+        }
+    }
+}
+
+/// A target's [`TargetKey`] and the rest of its [`TargetFrame`] (the two share the rotation
+/// and the core's bounds), in one cache line: the ordering test reads the key of every
+/// candidate, and the pair test the frame of those it keeps. Apart (36 and 32 bytes), a key
+/// would straddle two lines for about half the targets and the frame would be a line more;
+/// with 100,000 statics each line is a cache miss.
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(64))]
+pub(super) struct TargetRecord {
+    pub(super) key: TargetKey,
+    /// [`BodyFrame::reach`] of the target's frame.
+    reach: f32,
+    /// [`TargetFrame::core_is_box`].
+    core_is_box: bool,
+    /// The target was removed since the set was built ([`StaticSet::disable`]): never hit.
+    pub(super) disabled: bool,
+}
+
+// One line: a key that grew past 59 bytes would make every record two.
+const _: () = assert!(size_of::<TargetRecord>() == 64);
+
+impl TargetRecord {
+    fn new(item: &StaticItem) -> Self {
+        let frame = TargetFrame::new(item);
+        Self {
+            key: TargetKey::new(item, &frame),
+            reach: frame.toi.reach(),
+            core_is_box: frame.core_is_box,
+            disabled: false,
+        }
+    }
+
+    /// The frame, the same values [`TargetFrame::new`] gave.
+    #[inline]
+    pub(super) fn frame(&self) -> TargetFrame {
+        TargetFrame {
+            toi: BodyFrame::from_parts(self.key.rotation, self.reach),
+            core: self.key.core,
+            core_is_box: self.core_is_box,
+        }
+    }
+}
+
+impl TargetFrame {
+    pub(super) fn new(item: &StaticItem) -> Self {
+        // As `time_of_impact` sees the target: at rest at its pose, centred on its origin.
+        let sweep = Sweep::stationary(Vec2::ZERO, item.position, item.angle);
+        let toi = BodyFrame::new(&sweep, &item.proxy);
+        let points = item.proxy.points();
+        let (min, max) = points.iter().fold((points[0], points[0]), |(lo, hi), &p| {
+            (lo.min(p), hi.max(p))
+        });
+        let corners = [min, Vec2::new(max.x, min.y), max, Vec2::new(min.x, max.y)];
+        let core_is_box = corners.iter().all(|c| points.contains(c))
+            && points.iter().all(|p| corners.contains(p));
+        Self {
+            toi,
+            core: Aabb { min, max },
+            core_is_box,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::test_support::{Rng, target};
+    use crate::geometry::{Capsule, Circle, Polygon, Segment, Shape};
+
+    /// A record gives back the frame it was built from, bit for bit: the solver reads frames
+    /// from the records instead of computing them per pair.
+    #[test]
+    fn a_record_gives_back_its_frame() {
+        let mut rng = Rng(3);
+        for _ in 0..1_000 {
+            let item = target(&mut rng);
+            let frame = TargetFrame::new(&item);
+            let back = TargetRecord::new(&item).frame();
+            let bits = |q: Rot| (q.c.to_bits(), q.s.to_bits());
+            assert_eq!(bits(back.toi.rotation()), bits(frame.toi.rotation()));
+            assert_eq!(back.toi.reach().to_bits(), frame.toi.reach().to_bits());
+            assert_eq!(back.core, frame.core);
+            assert_eq!(back.core_is_box, frame.core_is_box);
+        }
+    }
+
+    /// Cores whose points are the corners of their bounds (a rectangle, a segment along an
+    /// axis, a point) are boxes; others are not.
+    #[test]
+    fn box_cores_are_recognised() {
+        let core_is_box = |shape: Shape| {
+            let item = StaticItem {
+                proxy: shape.proxy(),
+                position: Vec2::new(1.0, 2.0),
+                angle: 0.7,
+            };
+            TargetFrame::new(&item).core_is_box
+        };
+        assert!(core_is_box(Polygon::rectangle(0.5, 0.2).unwrap().into()));
+        assert!(core_is_box(Circle::new(0.3).unwrap().into()));
+        assert!(core_is_box(Capsule::horizontal(0.5, 0.1).unwrap().into()));
+        assert!(!core_is_box(Polygon::regular(5, 0.5, 0.0).unwrap().into()));
+        let tilted = Segment::new(Vec2::ZERO, Vec2::new(1.0, 1.0)).unwrap();
+        assert!(!core_is_box(tilted.into()));
+    }
+
+    /// `disable` marks one target until the next rebuild; an index out of range is ignored.
+    #[test]
+    fn disable_lasts_until_the_next_rebuild() {
+        let mut rng = Rng(5);
+        let items: Vec<StaticItem> = (0..4).map(|_| target(&mut rng)).collect();
+        let mut set = StaticSet::default();
+        set.rebuild(items.iter().copied());
+        set.disable(2);
+        set.disable(99);
+        let disabled: Vec<bool> = set.records().iter().map(|r| r.disabled).collect();
+        assert_eq!(disabled, [false, false, true, false]);
+        set.rebuild(items);
+        assert!(set.records().iter().all(|r| !r.disabled));
+    }
+}
