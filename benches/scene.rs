@@ -36,10 +36,10 @@
 //!
 //! Every timed iteration starts from the same state: the bodies are put back at their start
 //! pose and velocity (untimed) as a game loop's last step would have left them (their
-//! `Transform` unflagged and `Sweep`'s resolved pose at the start; `SCENE_TELEPORT=1` puts
+//! `Transform` unflagged and `StepPoses`' resolved pose at the start; `SCENE_TELEPORT=1` puts
 //! them back as teleports instead, which `RecordStart` must read off the `Transform`),
 //! `RecordStart` runs (timed), the bodies are moved to their free end pose (untimed: that is
-//! the user's movement), then `RecordEnd`, `BroadPhase`, `TimeOfImpact` and `Resolve` run
+//! the user's movement), then `RecordEnd`, `BroadPhase`, `CcdOutcome` and `Resolve` run
 //! (timed). A summary with medians of the per-iteration times
 //! is printed at the end and written to `$CARGO_TARGET_DIR/scene-summary.md`.
 
@@ -49,10 +49,10 @@ use std::hint::black_box;
 use std::time::{Duration, Instant};
 
 use bevy_app::{App, FixedFirst, FixedPostUpdate};
-use bevy_ccd::geometry::{self, BodyState, ResolveMode, SolveSettings, StaticItem, StaticSet};
-use bevy_ccd::plugin::CcdWorkspace;
+use bevy_ccd::geometry;
 use bevy_ccd::prelude::*;
-use bevy_ccd::testing::{Level, LevelConfig, generate_level, headless_app, spawn_level};
+use bevy_ccd::testing::solver::{BodyState, SolveSettings, StaticItem, StaticSet, solve_body};
+use bevy_ccd::testing::{Level, LevelConfig, generate_level, headless_app, rewind, spawn_level};
 use bevy_ecs::message::Messages;
 use bevy_ecs::prelude::*;
 use bevy_ecs::query::QueryState;
@@ -117,7 +117,7 @@ fn median(v: &mut [f64]) -> f64 {
 // Ours
 // ---------------------------------------------------------------------------------------
 
-/// Instants taken between the `CcdSystems` sets of the main schedule.
+/// Instants taken between the `CcdStepSystems` sets of `CcdSchedule`.
 #[derive(Resource, Default)]
 struct Stamps([Option<Instant>; 5]);
 
@@ -130,19 +130,18 @@ struct Ours {
     bodies: Vec<Entity>,
     start: Vec<(Transform, Velocity)>,
     end: Vec<Transform>,
-    /// Each body's start pose, as the last step's write-back would have left it.
-    start_pose: Vec<(Vec2, f32)>,
     query: QueryState<(
         &'static mut Transform,
         &'static mut Velocity,
-        &'static mut bevy_ccd::plugin::Sweep,
+        &'static mut StepPoses,
     )>,
     /// Put bodies back as a teleport (`SCENE_TELEPORT=1`) rather than as a game loop.
     teleport: bool,
 }
 
-/// Seconds: [total, record (start + end), broad phase, time of impact, resolve, scheduling,
-/// the start schedule (the record phase's first part, with its schedule)].
+/// Seconds: [total, record (start + end), static hierarchy update, solve (broad phase, time of
+/// impact, resolution, write-back), impact messages, scheduling, the start schedule (the
+/// record phase's first part, with its schedule)].
 type Phases = [f64; 7];
 
 impl Ours {
@@ -159,17 +158,17 @@ impl Ours {
             app.add_systems(
                 CcdSchedule,
                 (
-                    stamp::<0>.before(CcdSystems::RecordEnd),
+                    stamp::<0>.before(CcdStepSystems::RecordEnd),
                     stamp::<1>
-                        .after(CcdSystems::RecordEnd)
-                        .before(CcdSystems::BroadPhase),
+                        .after(CcdStepSystems::RecordEnd)
+                        .before(CcdStepSystems::UpdateStatics),
                     stamp::<2>
-                        .after(CcdSystems::BroadPhase)
-                        .before(CcdSystems::TimeOfImpact),
+                        .after(CcdStepSystems::UpdateStatics)
+                        .before(CcdStepSystems::Solve),
                     stamp::<3>
-                        .after(CcdSystems::TimeOfImpact)
-                        .before(CcdSystems::Resolve),
-                    stamp::<4>.after(CcdSystems::Resolve),
+                        .after(CcdStepSystems::Solve)
+                        .before(CcdStepSystems::Impacts),
+                    stamp::<4>.after(CcdStepSystems::Impacts),
                 ),
             );
         }
@@ -192,7 +191,6 @@ impl Ours {
             app,
             bodies: arena.bodies,
             start,
-            start_pose: level.bodies.iter().map(|b| (b.position, b.angle)).collect(),
             end,
             query,
             teleport: std::env::var_os("SCENE_TELEPORT").is_some(),
@@ -219,18 +217,15 @@ impl Ours {
         // systems (after `RecordStart`) move bodies, a body starts each step where the last
         // one left it, so `RecordStart` copies that pose instead of reading the `Transform`
         // (an `atan2` per body). Hence the `Transform` is put back without a change flag and
-        // `Sweep`'s resolved pose with it. `SCENE_TELEPORT=1` puts it back as a teleport
+        // `StepPoses`' resolved pose with it ([`rewind`]). `SCENE_TELEPORT=1` puts it back as a teleport
         // instead (a changed `Transform`, read by `RecordStart`): 0.1-0.15 ms more per
         // 10,000 bodies.
-        for ((e, (t, v)), &(p, a)) in self.bodies.iter().zip(&self.start).zip(&self.start_pose) {
-            let (mut tr, mut vel, mut sweep) = self.query.get_mut(world, *e).expect("body exists");
+        for (e, (t, v)) in self.bodies.iter().zip(&self.start) {
+            let (mut tr, mut vel, mut poses) = self.query.get_mut(world, *e).expect("body exists");
             if self.teleport {
                 *tr = *t;
             } else {
-                *tr.bypass_change_detection() = *t;
-                let sweep = sweep.bypass_change_detection();
-                sweep.resolved_position = p;
-                sweep.resolved_angle = a;
+                rewind(&mut tr, &mut poses, *t);
             }
             *vel = *v;
         }
@@ -264,12 +259,12 @@ impl Ours {
     /// Impacts and sub-steps of the last step.
     fn outcome(&mut self) -> (u64, u64, u64) {
         let world = self.app.world_mut();
-        let mut q = world.query::<&TimeOfImpact>();
+        let mut q = world.query::<&CcdOutcome>();
         q.iter(world).fold((0, 0, 0), |acc, t| {
             (
-                acc.0 + t.impacts as u64,
-                acc.1 + t.substeps as u64,
-                acc.2 + (t.status == CcdStatus::Error) as u64,
+                acc.0 + t.impacts() as u64,
+                acc.1 + t.substeps() as u64,
+                acc.2 + matches!(t, CcdOutcome::Error(_)) as u64,
             )
         })
     }
@@ -340,7 +335,7 @@ impl Kernels {
         t.elapsed().as_secs_f64()
     }
 
-    fn time_solve(&self, candidates: &[Vec<u32>], mode: ResolveMode) -> f64 {
+    fn time_solve(&self, candidates: &[Vec<u32>], mode: Resolution) -> f64 {
         let settings = SolveSettings {
             mode,
             linear_slop: LINEAR_SLOP,
@@ -351,7 +346,7 @@ impl Kernels {
         let t = Instant::now();
         for (b, c) in self.bodies.iter().zip(candidates) {
             impacts.clear();
-            black_box(geometry::solve_body(
+            black_box(solve_body(
                 b,
                 &self.statics,
                 c,
@@ -911,9 +906,9 @@ fn profile(mode: &str) {
     let names = [
         "step",
         "record",
-        "broad phase",
-        "TOI",
-        "resolve",
+        "update statics",
+        "solve",
+        "impacts",
         "schedule",
         "record: the start schedule",
     ];
@@ -1041,18 +1036,17 @@ fn main() {
             }
             {
                 let w = app.app.world();
-                let ws = w.resource::<CcdWorkspace>();
-                let comp = size_of::<bevy_ccd::plugin::Sweep>()
-                    + size_of::<TimeOfImpact>()
-                    + size_of::<CcdEnabled>();
+                let diagnostics = w.resource::<CcdDiagnostics>();
+                let comp =
+                    size_of::<StepPoses>() + size_of::<CcdOutcome>() + size_of::<CcdEnabled>();
                 writeln!(
                     memory,
                     "| {n} | {m} | {} | {} | {} | {} | {} |",
-                    size_of::<bevy_ccd::plugin::Sweep>(),
-                    size_of::<TimeOfImpact>(),
+                    size_of::<StepPoses>(),
+                    size_of::<CcdOutcome>(),
                     size_of::<CcdEnabled>(),
-                    ws.bytes_per_body(),
-                    comp + ws.bytes_per_body()
+                    diagnostics.bytes_per_body,
+                    comp + diagnostics.bytes_per_body
                 )
                 .unwrap();
             }
@@ -1065,12 +1059,7 @@ fn main() {
                 });
                 let q = median(&mut q);
                 for mode in modes {
-                    let rm = match mode {
-                        Resolution::Clamp => ResolveMode::Clamp,
-                        Resolution::SubStep { max_substeps } => {
-                            ResolveMode::SubStep { max_substeps }
-                        }
-                    };
+                    let rm = mode;
                     let mut s = bench_custom(
                         &mut c,
                         "kernels/n10000/m1000",
@@ -1170,7 +1159,7 @@ fn main() {
          executor a few µs), so their sum can exceed `step`.\n"
     )
     .unwrap();
-    writeln!(out, "| N | M | mode | threads | step | record | broad phase | TOI | resolve | schedule | sum of phase medians | impacts | sub-steps | errors |").unwrap();
+    writeln!(out, "| N | M | mode | threads | step | record | update statics | solve | impacts | schedule | sum of phase medians | impacts | sub-steps | errors |").unwrap();
     writeln!(
         out,
         "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
@@ -1188,7 +1177,7 @@ fn main() {
     writeln!(out, "\n### Memory kept per CCD body (bytes)\n").unwrap();
     writeln!(
         out,
-        "| N | M | Sweep | TimeOfImpact | CcdEnabled | workspace/body | total |"
+        "| N | M | StepPoses | CcdOutcome | CcdEnabled | buffers/body | total |"
     )
     .unwrap();
     writeln!(out, "|---|---|---|---|---|---|---|").unwrap();

@@ -98,8 +98,8 @@ fn steady_state_steps_allocate_nothing() {
     let mut impacts = 0u64;
     for _ in 0..300 {
         step(world, true);
-        let mut q = world.query::<&TimeOfImpact>();
-        impacts += q.iter(world).map(|t| t.impacts as u64).sum::<u64>();
+        let mut q = world.query::<&CcdOutcome>();
+        impacts += q.iter(world).map(|t| t.impacts() as u64).sum::<u64>();
     }
     let allocations = ALLOCATIONS.load(Ordering::SeqCst);
     eprintln!("300 steps, {impacts} impacts, {allocations} allocations");

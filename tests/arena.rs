@@ -46,11 +46,11 @@ fn run(resolution: Resolution, ccd: bool, steps: usize, check: bool) -> RunStats
         app.step_fixed(1);
         liveness.observe(app.world_mut());
         let world = app.world_mut();
-        let mut q = world.query::<&TimeOfImpact>();
-        stats.impacts += q.iter(world).map(|t| t.impacts as u64).sum::<u64>();
+        let mut q = world.query::<&CcdOutcome>();
+        stats.impacts += q.iter(world).map(|t| t.impacts() as u64).sum::<u64>();
         stats.failed += q
             .iter(world)
-            .filter(|t| t.status == CcdStatus::Error)
+            .filter(|t| matches!(t, CcdOutcome::Error(_)))
             .count() as u64;
         if check || step + 1 == steps {
             let outside = bodies_outside(world, bounds);

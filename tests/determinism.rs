@@ -10,7 +10,7 @@ use bevy_ccd::prelude::*;
 use support::app::*;
 
 /// Poses after 200 steps, with the outcome components and every impact message of the run.
-type ArenaRun = (Vec<[u32; 7]>, Vec<TimeOfImpact>, Vec<CcdImpact>, u64);
+type ArenaRun = (Vec<[u32; 7]>, Vec<CcdOutcome>, Vec<CcdImpact>, u64);
 
 fn arena_poses(parallel: bool) -> ArenaRun {
     let config = CcdConfig {

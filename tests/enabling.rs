@@ -50,7 +50,7 @@ struct ToggleRun {
     /// `impacts[step][body]`, steps 1-based (index 0 unused).
     impacts: Vec<Vec<u32>>,
     /// The status of the toggled body after each step (index 0 unused).
-    statuses: Vec<CcdStatus>,
+    statuses: Vec<CcdOutcome>,
     /// Speeds of every body after `TOGGLE_AT` steps.
     speeds_at_toggle: Vec<f32>,
 }
@@ -58,7 +58,7 @@ struct ToggleRun {
 fn toggle_run(body: Option<usize>, toggle: Toggle) -> ToggleRun {
     let (mut app, arena) = logged_arena(TOGGLE_BODIES, CcdConfig::default(), 7);
     let mut impacts = vec![Vec::new()];
-    let mut statuses = vec![CcdStatus::Idle];
+    let mut statuses = vec![CcdOutcome::Idle];
     let mut speeds_at_toggle = Vec::new();
     for s in 1..=TOGGLE_STEPS {
         if s == TOGGLE_AT + 1 {
@@ -93,8 +93,14 @@ fn toggle_run(body: Option<usize>, toggle: Toggle) -> ToggleRun {
                 .insert(CcdEnabled(true));
         }
         step(&mut app);
-        impacts.push(arena.bodies.iter().map(|e| toi(&app, *e).impacts).collect());
-        statuses.push(body.map_or(CcdStatus::Idle, |i| toi(&app, arena.bodies[i]).status));
+        impacts.push(
+            arena
+                .bodies
+                .iter()
+                .map(|e| toi(&app, *e).impacts())
+                .collect(),
+        );
+        statuses.push(body.map_or(CcdOutcome::Idle, |i| toi(&app, arena.bodies[i])));
     }
     ToggleRun {
         app,
@@ -162,7 +168,7 @@ fn toggling_ccd_enabled_changes_that_body_alone() {
     for s in TOGGLE_AT + 1..=TOGGLE_STEPS {
         assert_eq!(
             disabled.statuses[s],
-            CcdStatus::Idle,
+            CcdOutcome::Idle,
             "step {s}: disabled body was swept"
         );
         assert_eq!(
@@ -185,7 +191,7 @@ fn toggling_ccd_enabled_changes_that_body_alone() {
     for s in TOGGLE_AT + 1..=TOGGLE_STEPS {
         assert_eq!(
             removed.statuses[s],
-            CcdStatus::Idle,
+            CcdOutcome::Idle,
             "step {s}: body without CcdEnabled"
         );
     }
@@ -195,14 +201,14 @@ fn toggling_ccd_enabled_changes_that_body_alone() {
     for s in TOGGLE_AT + 1..resume_at {
         assert_eq!(
             resumed.statuses[s],
-            CcdStatus::Idle,
+            CcdOutcome::Idle,
             "step {s}: should be off"
         );
     }
     for s in resume_at..=TOGGLE_STEPS {
         assert_ne!(
             resumed.statuses[s],
-            CcdStatus::Idle,
+            CcdOutcome::Idle,
             "step {s}: should be swept again"
         );
     }
@@ -223,7 +229,11 @@ fn reenabled_body_is_stopped_by_a_wall() {
     app.world_mut().entity_mut(ball).insert(CcdEnabled(false));
     step(&mut app);
     step(&mut app);
-    assert_eq!(toi(&app, ball).status, CcdStatus::Idle);
+    assert!(
+        matches!(toi(&app, ball), CcdOutcome::Idle),
+        "{:?}",
+        toi(&app, ball)
+    );
     app.world_mut().entity_mut(ball).insert(CcdEnabled(true));
     for _ in 0..6 {
         step(&mut app);
@@ -232,7 +242,7 @@ fn reenabled_body_is_stopped_by_a_wall() {
     }
     let log = app.world().resource::<Log>();
     assert_eq!(log.impacts.len(), 1, "one impact: {:?}", log.impacts);
-    assert_eq!(log.impacts[0].1.other, wall);
+    assert_eq!(log.impacts[0].1.target, wall);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -294,7 +304,11 @@ fn check_toggle(stop: Stop) {
     for _ in 0..3 {
         step(&mut app);
     }
-    assert_eq!(toi(&app, ball).status, CcdStatus::Clear);
+    assert!(
+        matches!(toi(&app, ball), CcdOutcome::Clear),
+        "{:?}",
+        toi(&app, ball)
+    );
     // Step 4: turned off inside it, still swept: stopped in the hit band in front of the face.
     step(&mut app);
     let x4 = position(&app, ball).x;
@@ -304,8 +318,12 @@ fn check_toggle(stop: Stop) {
         x4 + RADIUS <= FACE - (SLOP - TOL) + ROUND && x4 + RADIUS >= FACE - (SLOP + TOL) - ROUND,
         "{stop:?}: the step the toggle was made in was not swept: x = {x4}"
     );
-    assert_eq!(outcome.status, CcdStatus::Hit, "{stop:?}");
-    assert_eq!(outcome.first_hit.map(|h| h.other), Some(wall), "{stop:?}");
+    assert!(matches!(outcome, CcdOutcome::Hit(_)), "{stop:?}");
+    assert_eq!(
+        outcome.first_hit().map(|h| h.target),
+        Some(wall),
+        "{stop:?}"
+    );
     // Step 5: not swept any more: the whole push, through the wall, and the outcome is reset.
     step(&mut app);
     let x5 = position(&app, ball).x;
@@ -315,7 +333,7 @@ fn check_toggle(stop: Stop) {
         (x5 - (x4 + 3.0)).abs() <= ROUND,
         "{stop:?}: swept in the step after the toggle: x = {x5}, pushed from {x4}"
     );
-    assert_eq!(outcome, TimeOfImpact::default(), "{stop:?}: not reset");
+    assert_eq!(outcome, CcdOutcome::default(), "{stop:?}: not reset");
     assert_eq!(
         app.world().resource::<Log>().impacts.len(),
         1,
@@ -345,18 +363,18 @@ fn removing_the_collider_resets_the_outcome() {
     let ball = spawn_ball(&mut app, 0.1, Vec2::ZERO, Vec2::new(200.0, 0.0), ());
     step(&mut app);
     let hit = toi(&app, ball);
-    assert_eq!(hit.status, CcdStatus::Hit);
-    assert_eq!(hit.first_hit.map(|h| h.other), Some(wall));
+    assert!(matches!(hit, CcdOutcome::Hit(_)), "{:?}", hit);
+    assert_eq!(hit.first_hit().map(|h| h.target), Some(wall));
     app.world_mut().entity_mut(ball).remove::<Collider>();
     step(&mut app);
     let outcome = toi(&app, ball);
     eprintln!("collider removed: {hit:?} -> {outcome:?}");
     assert_eq!(
         outcome,
-        TimeOfImpact::default(),
+        CcdOutcome::default(),
         "the outcome of a body that is no longer swept must go back to Idle"
     );
-    assert!(outcome.first_hit.is_none());
+    assert!(outcome.first_hit().is_none());
 }
 
 /// Warnings logged by the crate, captured process-wide (the tests of this file run in
@@ -430,7 +448,7 @@ fn an_enabled_body_without_a_collider_is_not_swept_and_is_warned_about_once() {
     let needle = format!("body {body} has CcdEnabled but no Collider");
     for s in 1..=5 {
         step(&mut app);
-        assert_eq!(toi(&app, body), TimeOfImpact::default(), "step {s}");
+        assert_eq!(toi(&app, body), CcdOutcome::default(), "step {s}");
         assert_eq!(
             pose_bits(&app, body),
             pose_bits(&app, twin),
@@ -448,5 +466,8 @@ fn an_enabled_body_without_a_collider_is_not_swept_and_is_warned_about_once() {
     step(&mut app);
     let x = position(&app, body).x;
     assert!(x + 0.1 <= 19.0 - (SLOP - TOL) + ROUND, "x = {x}");
-    assert_eq!(toi(&app, body).first_hit.map(|h| h.other), Some(far_wall));
+    assert_eq!(
+        toi(&app, body).first_hit().map(|h| h.target),
+        Some(far_wall)
+    );
 }

@@ -111,8 +111,8 @@ fn extreme_masses_and_speeds_never_write_nan_nor_panic() {
         }
         // Ordinary bodies among them land on the floor as usual: hit, no error.
         for body in ordinary {
-            let toi = app.world().get::<TimeOfImpact>(body).expect("swept");
-            assert!(toi.error.is_none() && toi.impacts > 0, "{toi:?}");
+            let toi = app.world().get::<CcdOutcome>(body).expect("swept");
+            assert!(toi.error().is_none() && toi.impacts() > 0, "{toi:?}");
         }
     }
 }

@@ -92,14 +92,14 @@ fn shifted_arena(resolution: Resolution, margin: f32, steps: usize) -> Outcome {
     for _ in 0..steps {
         app.step_fixed(1);
         let world = app.world_mut();
-        let mut q = world.query::<&TimeOfImpact>();
-        for t in q.iter(world).filter(|t| t.status == CcdStatus::Error) {
+        let mut q = world.query::<&CcdOutcome>();
+        for t in q.iter(world).filter(|t| matches!(t, CcdOutcome::Error(_))) {
             if out.errors == 0 {
                 eprintln!("first error: {t:?}");
             }
             out.errors += 1;
         }
-        out.impacts += q.iter(world).map(|t| t.impacts as u64).sum::<u64>();
+        out.impacts += q.iter(world).map(|t| t.impacts() as u64).sum::<u64>();
         out.most_outside = out.most_outside.max(bodies_outside(world, bounds).len());
         out.deepest = out.deepest.max(deepest_penetration(world).0);
     }
@@ -181,9 +181,9 @@ fn balls_resting_on_a_large_floor_at_the_limit() {
         app.step_fixed(1);
         let world = app.world_mut();
         for &ball in &balls {
-            let toi = world.get::<TimeOfImpact>(ball).unwrap();
-            assert_ne!(toi.status, CcdStatus::Error, "step {step}: {toi:?}");
-            hits += toi.impacts;
+            let toi = world.get::<CcdOutcome>(ball).unwrap();
+            assert!(!matches!(toi, CcdOutcome::Error(_)), "step {step}: {toi:?}");
+            hits += toi.impacts();
         }
         deepest = deepest.max(deepest_penetration(world).0);
     }
@@ -227,9 +227,9 @@ fn body_reaching_past_the_limit_is_refused_and_left_alone() {
     app.step_fixed(2);
     let world = app.world_mut();
     for (&body, spot) in bodies.iter().zip(&spots).take(2) {
-        let toi = world.get::<TimeOfImpact>(body).unwrap();
-        assert_eq!(toi.status, CcdStatus::Error, "{spot}: {toi:?}");
-        assert_eq!(toi.error, Some(CcdError::CoordinatesTooLarge), "{spot}");
+        let toi = world.get::<CcdOutcome>(body).unwrap();
+        assert!(matches!(toi, CcdOutcome::Error(_)), "{spot}: {toi:?}");
+        assert_eq!(toi.error(), Some(CcdError::CoordinatesTooLarge), "{spot}");
         assert_eq!(
             world.get::<Transform>(body).unwrap().translation.truncate(),
             *spot,
@@ -237,8 +237,8 @@ fn body_reaching_past_the_limit_is_refused_and_left_alone() {
         );
         assert_eq!(*world.get::<Velocity>(body).unwrap(), velocity);
     }
-    let inside = world.get::<TimeOfImpact>(bodies[2]).unwrap();
-    assert_eq!(inside.status, CcdStatus::Clear, "{inside:?}");
+    let inside = world.get::<CcdOutcome>(bodies[2]).unwrap();
+    assert!(matches!(inside, CcdOutcome::Clear), "{inside:?}");
 }
 
 /// A static disc whose centre is well inside the limit but whose far side is past it is
@@ -270,8 +270,8 @@ fn static_reaching_past_the_limit_is_ignored() {
         .id();
     app.step_fixed(3);
     let world = app.world_mut();
-    let toi = world.get::<TimeOfImpact>(ball).unwrap();
-    assert_eq!(toi.status, CcdStatus::Clear, "{toi:?}");
+    let toi = world.get::<CcdOutcome>(ball).unwrap();
+    assert!(matches!(toi, CcdOutcome::Clear), "{toi:?}");
     let y = world.get::<Transform>(ball).unwrap().translation.y;
     assert!(
         y < top - 1.0,
@@ -301,12 +301,12 @@ fn statics_follow_a_change_of_slop() {
     );
     let first = app.world_mut().spawn(falling).id();
     app.step_fixed(1);
-    let toi = *app.world().get::<TimeOfImpact>(first).unwrap();
-    assert_eq!(toi.error, Some(CcdError::CoordinatesTooLarge), "{toi:?}");
+    let toi = *app.world().get::<CcdOutcome>(first).unwrap();
+    assert_eq!(toi.error(), Some(CcdError::CoordinatesTooLarge), "{toi:?}");
     app.world_mut().despawn(first);
     app.world_mut().resource_mut::<CcdConfig>().linear_slop = 2.0 * LINEAR_SLOP;
     let second = app.world_mut().spawn(falling).id();
     app.step_fixed(1);
-    let toi = *app.world().get::<TimeOfImpact>(second).unwrap();
-    assert_eq!(toi.status, CcdStatus::Hit, "{toi:?}");
+    let toi = *app.world().get::<CcdOutcome>(second).unwrap();
+    assert!(matches!(toi, CcdOutcome::Hit(_)), "{toi:?}");
 }

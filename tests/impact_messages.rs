@@ -1,6 +1,6 @@
 //! The `CcdImpact` message of a ball hitting a wall: one message, in the step of the hit, naming
 //! the ball and the wall, with the fraction, normal and point the scene gives, and the same
-//! impact as the ball's `TimeOfImpact`.
+//! impact as the ball's `CcdOutcome`.
 //!
 //! Expected values come from the scene (geometry, speeds, the time-of-impact contract "a hit
 //! leaves the surfaces `slop ± slop/4` apart"), from a reference run of the same scene or from
@@ -43,7 +43,7 @@ fn a_ball_hitting_a_wall_sends_one_impact_message() {
     eprintln!("impact at step {s}: {m:?}");
     assert_eq!(s, 1, "5 m per step: the wall is reached in the first step");
     assert_eq!(m.body, ball);
-    assert_eq!(m.other, wall);
+    assert_eq!(m.target, wall);
     assert_eq!(m.substep, 0);
     // The ball's surface reaches `3 - gap`, gap in SLOP ± TOL, after covering
     // `3 - radius - gap` of the 5 m step; f32 rounding of the fraction is far below TOL / 5.
@@ -77,13 +77,14 @@ fn a_ball_hitting_a_wall_sends_one_impact_message() {
     );
     assert!((m.point.y - y).abs() <= ROUND, "point {}", m.point);
     // The component of that step agrees with the message.
-    assert_eq!(outcome.status, CcdStatus::Hit);
-    assert_eq!(outcome.impacts, 1);
-    let hit = outcome.first_hit.expect("a hit has a first impact");
-    assert_eq!(
-        (hit.other, hit.fraction, hit.point, hit.normal),
-        (m.other, m.fraction, m.point, m.normal)
-    );
+    assert!(matches!(outcome, CcdOutcome::Hit(_)), "{:?}", outcome);
+    assert_eq!(outcome.impacts(), 1);
+    let hit = outcome.first_hit().expect("a hit has a first impact");
+    assert_eq!(*hit, m, "the first impact is the message's");
     // Resting against the wall afterwards (restitution 0): swept, nothing new hit.
-    assert_eq!(toi(&app, ball).status, CcdStatus::Clear);
+    assert!(
+        matches!(toi(&app, ball), CcdOutcome::Clear),
+        "{:?}",
+        toi(&app, ball)
+    );
 }

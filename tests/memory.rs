@@ -3,7 +3,6 @@
 
 mod support;
 
-use bevy_ccd::plugin::CcdWorkspace;
 use bevy_ccd::prelude::*;
 use support::app::*;
 
@@ -26,13 +25,13 @@ fn memory_kept_per_body_is_within_budget() {
         for _ in 0..100 {
             step(&mut app);
         }
-        let ws = app.world().resource::<CcdWorkspace>();
-        assert_eq!(ws.body_count(), arena.bodies.len(), "every body swept");
-        let components = size_of::<Sweep>() + size_of::<TimeOfImpact>() + size_of::<CcdEnabled>();
-        let total = components + ws.bytes_per_body();
+        let diagnostics = app.world().resource::<CcdDiagnostics>();
+        assert_eq!(diagnostics.bodies, arena.bodies.len(), "every body swept");
+        let components = size_of::<StepPoses>() + size_of::<CcdOutcome>() + size_of::<CcdEnabled>();
+        let total = components + diagnostics.bytes_per_body;
         eprintln!(
-            "parallel {parallel}: components {components} B + workspace {} B = {total} B per body",
-            ws.bytes_per_body()
+            "parallel {parallel}: components {components} B + buffers {} B = {total} B per body",
+            diagnostics.bytes_per_body
         );
         assert!(total <= 256, "{total} B per body, budget 256 B");
     }

@@ -1,4 +1,4 @@
-//! The `TimeOfImpact` a user's systems read after a step: every change of outcome is written and
+//! The `CcdOutcome` a user's systems read after a step: every change of outcome is written and
 //! only those are flagged as changed, and an outcome replaced by the user is rewritten at the
 //! next step.
 
@@ -15,9 +15,9 @@ use support::app::*;
 /// then a valid one. The write-back visits only bodies whose outcome can change, so every
 /// transition must still be written, and a repeated outcome must not be flagged.
 #[derive(Resource, Default)]
-struct OutcomeLog(Vec<(TimeOfImpact, bool)>);
+struct OutcomeLog(Vec<(CcdOutcome, bool)>);
 
-fn log_outcomes(mut log: ResMut<OutcomeLog>, bodies: Query<Ref<TimeOfImpact>, With<Push>>) {
+fn log_outcomes(mut log: ResMut<OutcomeLog>, bodies: Query<Ref<CcdOutcome>, With<Push>>) {
     for toi in &bodies {
         log.0.push((*toi, toi.is_changed()));
     }
@@ -27,7 +27,7 @@ fn log_outcomes(mut log: ResMut<OutcomeLog>, bodies: Query<Ref<TimeOfImpact>, Wi
 fn every_change_of_outcome_is_written_and_only_those_are_flagged() {
     let mut app = app_with(Resolution::default(), Vec2::ZERO, false);
     app.init_resource::<OutcomeLog>()
-        .add_systems(FixedPostUpdate, log_outcomes.after(CcdSystems::Resolve));
+        .add_systems(FixedPostUpdate, log_outcomes.after(CcdSystems::Step));
     let wall = spawn_wall(&mut app, Vec2::new(1.05, 0.0), 0.05, 5.0);
     let ball = spawn_ball(&mut app, 0.1, Vec2::new(-5.0, 0.0), Vec2::ZERO, ());
     let put = |app: &mut App, x: f32, push: f32| {
@@ -35,36 +35,36 @@ fn every_change_of_outcome_is_written_and_only_those_are_flagged() {
             .entity_mut(ball)
             .insert((Transform::from_xyz(x, 0.0, 0.0), Push(Vec2::new(push, 0.0))));
     };
-    // (start x, push per step, expected status, whether the outcome changed)
+    // (start x, push per step, expected outcome, whether the outcome changed)
     let plan = [
-        (-5.0, 0.1, CcdStatus::Clear, true),
-        (-5.0, 0.1, CcdStatus::Clear, false),
-        (0.5, 2.0, CcdStatus::Hit, true),
-        (-5.0, 0.1, CcdStatus::Clear, true),
-        (f32::NAN, 0.1, CcdStatus::Error, true),
-        (f32::NAN, 0.1, CcdStatus::Error, false),
-        (-5.0, 0.1, CcdStatus::Clear, true),
-        (-5.0, 0.1, CcdStatus::Clear, false),
+        (-5.0, 0.1, "clear", true),
+        (-5.0, 0.1, "clear", false),
+        (0.5, 2.0, "hit", true),
+        (-5.0, 0.1, "clear", true),
+        (f32::NAN, 0.1, "error", true),
+        (f32::NAN, 0.1, "error", false),
+        (-5.0, 0.1, "clear", true),
+        (-5.0, 0.1, "clear", false),
     ];
-    for (k, &(x, push, status, changed)) in plan.iter().enumerate() {
+    for (k, &(x, push, expected, changed)) in plan.iter().enumerate() {
         put(&mut app, x, push);
         step(&mut app);
         let (outcome, flagged) = app.world().resource::<OutcomeLog>().0[k];
-        assert_eq!(outcome.status, status, "step {k}");
         assert_eq!(flagged, changed, "step {k}: change flag");
         assert_eq!(outcome, toi(&app, ball), "step {k}");
-        match status {
-            CcdStatus::Clear => assert_eq!(
-                outcome,
-                TimeOfImpact {
-                    status,
-                    ..Default::default()
-                },
-                "step {k}"
-            ),
-            CcdStatus::Hit => {
-                assert_eq!(outcome.first_hit.map(|h| h.other), Some(wall), "step {k}");
-                assert_eq!(outcome.impacts, 1, "step {k}");
+        match expected {
+            "clear" => assert_eq!(outcome, CcdOutcome::Clear, "step {k}"),
+            "hit" => {
+                assert!(
+                    matches!(outcome, CcdOutcome::Hit(_)),
+                    "step {k}: {outcome:?}"
+                );
+                assert_eq!(
+                    outcome.first_hit().map(|h| h.target),
+                    Some(wall),
+                    "step {k}"
+                );
+                assert_eq!(outcome.impacts(), 1, "step {k}");
                 // Stopped in front of the wall's face at x = 1.
                 let x = position(&app, ball).x;
                 assert!(
@@ -72,12 +72,15 @@ fn every_change_of_outcome_is_written_and_only_those_are_flagged() {
                     "step {k}: x = {x}"
                 );
             }
-            _ => assert!(outcome.error.is_some(), "step {k}"),
+            _ => assert!(
+                matches!(outcome, CcdOutcome::Error(CcdError::NonFiniteTransform)),
+                "step {k}: {outcome:?}"
+            ),
         }
     }
 }
 
-/// A `TimeOfImpact` replaced by the user (it is the plugin's to write, but nothing stops an
+/// A `CcdOutcome` replaced by the user (it is the plugin's to write, but nothing stops an
 /// insertion) is rewritten at the next step, although the body stayed clear.
 #[test]
 fn an_outcome_replaced_by_the_user_is_rewritten() {
@@ -87,10 +90,14 @@ fn an_outcome_replaced_by_the_user_is_rewritten() {
         .entity_mut(ball)
         .insert(Push(Vec2::new(0.1, 0.0)));
     step(&mut app);
-    assert_eq!(toi(&app, ball).status, CcdStatus::Clear);
+    assert!(
+        matches!(toi(&app, ball), CcdOutcome::Clear),
+        "{:?}",
+        toi(&app, ball)
+    );
     app.world_mut()
         .entity_mut(ball)
-        .insert(TimeOfImpact::default());
+        .insert(CcdOutcome::default());
     step(&mut app);
-    assert_eq!(toi(&app, ball).status, CcdStatus::Clear, "rewritten");
+    assert!(matches!(toi(&app, ball), CcdOutcome::Clear), "rewritten");
 }

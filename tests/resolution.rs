@@ -70,18 +70,18 @@ fn bounce(resolution: Resolution) -> BounceStats {
             p.y.abs() <= ROUND,
             "step {s}: ball drifted off the axis to {p}"
         );
-        counted += toi(&app, ball).impacts as usize;
+        counted += toi(&app, ball).impacts() as usize;
     }
     let log = app.world().resource::<Log>();
     assert_eq!(
         log.impacts.len(),
         counted,
-        "messages and TimeOfImpact::impacts disagree"
+        "messages and CcdOutcome::impacts disagree"
     );
     for (k, (_, m)) in log.impacts.iter().enumerate() {
         // Alternating walls, starting with the right one.
         let expected = if k % 2 == 0 { right } else { left };
-        assert_eq!(m.other, expected, "impact {k} hit the wrong wall");
+        assert_eq!(m.target, expected, "impact {k} hit the wrong wall");
     }
     // The free path between two impacts: the gap minus the ball's diameter minus the gap left
     // at each end, in `SLOP ± TOL`.
@@ -284,7 +284,7 @@ fn overlap_run(
     x0: f32,
     push: f32,
     steps: usize,
-) -> (Vec<f32>, Vec<CcdStatus>) {
+) -> (Vec<f32>, Vec<CcdOutcome>) {
     let mut app = app_with(Resolution::default(), Vec2::ZERO, false);
     spawn_wall(
         &mut app,
@@ -302,11 +302,11 @@ fn overlap_run(
         ))
         .id();
     let mut xs = vec![x0];
-    let mut statuses = vec![CcdStatus::Idle];
+    let mut statuses = vec![CcdOutcome::Idle];
     for _ in 0..steps {
         step(&mut app);
         xs.push(position(&app, ball).x);
-        statuses.push(toi(&app, ball).status);
+        statuses.push(toi(&app, ball));
     }
     (xs, statuses)
 }
@@ -326,9 +326,13 @@ fn check_overlap_case(name: &str, radius: f32, half_thickness: f32, x0: f32, out
         );
         let separation_at_start = -(xs[s - 1] + radius);
         if separation_at_start < 0.0 {
-            assert_eq!(statuses[s], CcdStatus::Overlapping, "{name}: step {s}");
+            assert!(
+                matches!(statuses[s], CcdOutcome::Overlapping(_)),
+                "{name}: step {s}: {:?}",
+                statuses[s]
+            );
         } else if separation_at_start > SLOP + TOL {
-            assert_eq!(statuses[s], CcdStatus::Clear, "{name}: step {s}");
+            assert_eq!(statuses[s], CcdOutcome::Clear, "{name}: step {s}");
         }
     }
     assert!(xs[steps] + radius < 0.0, "{name}: never got out");
@@ -349,12 +353,15 @@ fn check_overlap_case(name: &str, radius: f32, half_thickness: f32, x0: f32, out
             "{name}: step {s}: pushed out by {} m, more than the slop",
             xs[s - 1] - xs[s]
         );
-        let expected = if xs[s - 1] + radius > 0.0 {
-            CcdStatus::Overlapping
-        } else {
-            CcdStatus::Hit
-        };
-        assert_eq!(statuses[s], expected, "{name}: step {s}");
+        let overlapping = xs[s - 1] + radius > 0.0;
+        assert!(
+            matches!(
+                (overlapping, statuses[s]),
+                (true, CcdOutcome::Overlapping(_)) | (false, CcdOutcome::Hit(_))
+            ),
+            "{name}: step {s}: overlapping at the start {overlapping}, {:?}",
+            statuses[s]
+        );
     }
 }
 
@@ -431,7 +438,7 @@ fn spinning_rod_bounces_off_the_floor() {
                  linear {} -> {}",
                 impacts[0].fraction, before.angular, after.angular, before.linear, after.linear
             );
-            assert!(impacts.iter().all(|m| m.body == rod && m.other == floor));
+            assert!(impacts.iter().all(|m| m.body == rod && m.target == floor));
             // The spin before the impact is the initial one (nothing else changes it); the
             // impulse at the rod's end must change it.
             assert!(
@@ -441,11 +448,15 @@ fn spinning_rod_bounces_off_the_floor() {
         }
     }
     let log = app.world().resource::<Log>();
-    let on_floor = log.impacts.iter().filter(|(_, m)| m.other == floor).count();
+    let on_floor = log
+        .impacts
+        .iter()
+        .filter(|(_, m)| m.target == floor)
+        .count();
     let on_ceiling = log
         .impacts
         .iter()
-        .filter(|(_, m)| m.other == ceiling)
+        .filter(|(_, m)| m.target == ceiling)
         .count();
     eprintln!(
         "rod: {on_floor} impacts on the floor and {on_ceiling} on the ceiling in 200 steps, \
@@ -544,16 +555,19 @@ fn unlimited_substeps_do_bounded_work() {
         slowest = slowest.max(start.elapsed());
         for (name, body, inner) in bodies {
             let outcome = toi(&app, body);
-            most = (most.0.max(outcome.impacts), most.1.max(outcome.substeps));
-            assert!(
-                outcome.impacts <= impact_bound,
-                "step {s}: {name}: {} impacts, above {impact_bound}",
-                outcome.impacts
+            most = (
+                most.0.max(outcome.impacts()),
+                most.1.max(outcome.substeps()),
             );
             assert!(
-                outcome.substeps <= MAX_SUBSTEPS,
+                outcome.impacts() <= impact_bound,
+                "step {s}: {name}: {} impacts, above {impact_bound}",
+                outcome.impacts()
+            );
+            assert!(
+                outcome.substeps() <= MAX_SUBSTEPS,
                 "step {s}: {name}: {} sub-steps, above {MAX_SUBSTEPS}",
-                outcome.substeps
+                outcome.substeps()
             );
             let p = position(&app, body);
             // Trapped bodies are clamped: still inside the box, overlapping a wall by at most

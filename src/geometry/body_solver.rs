@@ -27,24 +27,39 @@ use super::static_set::{StaticSet, TargetRecord};
 use super::sweep::Sweep;
 use super::toi::{BodyFrame, ToiFailure};
 
-/// How a body is resolved once it hits something.
+/// How a body is resolved at an impact.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum ResolveMode {
-    /// The body stops at its impact; the rest of the step's motion is lost.
+pub enum Resolution {
+    /// At an impact with a target the body did not start the step touching, its pose becomes
+    /// its pose at the impact (at the target separation) and the rest of the step's motion is
+    /// dropped; its velocity still gets the impact response. The contacts a body starts the
+    /// step with (resting, sliding) get the response and the step goes on, as in `SubStep`. A
+    /// ball bouncing between walls travels 59 % of the sub-stepped distance: use `SubStep` for
+    /// bouncing.
     Clamp,
-    /// The body advances to its impact, responds, and spends the rest of the step from there,
-    /// up to `max_substeps` times; past that it is clamped.
+    /// Advance to the impact, respond with an impulse (restitution, friction, mass and
+    /// inertia), spend the remaining fraction of the step from there with a new sweep, search
+    /// again; after `max_substeps` impacts, clamp.
     SubStep {
-        /// The most impacts handled in one step before clamping.
+        /// The most impacts handled in one step after the first; contacts resolved without
+        /// advancing count too. The default is 4; values above [`MAX_SUBSTEPS`] (64) are
+        /// capped there (the plugin warns once).
         max_substeps: u32,
     },
+}
+
+impl Default for Resolution {
+    /// Sub-steps, at most 4.
+    fn default() -> Self {
+        Self::SubStep { max_substeps: 4 }
+    }
 }
 
 /// Settings shared by every body of a step.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SolveSettings {
     /// Clamp or sub-step.
-    pub mode: ResolveMode,
+    pub mode: Resolution,
     /// Linear slop (m).
     pub linear_slop: f32,
     /// Length of the step (s), positive and finite.
@@ -132,7 +147,7 @@ const ORDERED_TARGETS: usize = 32;
 /// Contacts the body starts a sweep with are responded to together as soon as one of them is
 /// driven into (Gauss-Seidel over them, [`CONTACT_PASSES`]), and the sweep goes on from there
 /// in both modes; an impact with a target it was not touching ends the step in
-/// [`ResolveMode::Clamp`]. Every loop is bounded: [`MAX_SUBSTEPS`] sub-steps, and
+/// [`Resolution::Clamp`]. Every loop is bounded: [`MAX_SUBSTEPS`] sub-steps, and
 /// [`MAX_CONTACTS_AT_ONE_POSE`] responses in a row without advancing, after which the body is
 /// wedged: it stays where it is, at rest.
 pub fn solve_body(
@@ -425,8 +440,8 @@ pub fn solve_body(
             // Clamping stops at the first impact with a target the body did not start the
             // sweep touching; a contact it starts with (or slides or turns into) only changes
             // its velocity, and the step goes on from there.
-            ResolveMode::Clamp => advanced && !resting,
-            ResolveMode::SubStep { max_substeps } => {
+            Resolution::Clamp => advanced && !resting,
+            Resolution::SubStep { max_substeps } => {
                 result.substeps >= max_substeps.min(MAX_SUBSTEPS)
             }
         };
@@ -483,7 +498,7 @@ mod tests {
     }
 
     /// Solves one body against `statics` (every target a candidate) in `mode`.
-    fn solve(body: &BodyState, statics: &StaticSet, mode: ResolveMode) -> BodyOutcome {
+    fn solve(body: &BodyState, statics: &StaticSet, mode: Resolution) -> BodyOutcome {
         let candidates: Vec<u32> = (0..statics.items().len() as u32).collect();
         let settings = SolveSettings {
             mode,
@@ -535,7 +550,7 @@ mod tests {
             Vec2::new(-23.801_376, 117.541_08),
             172.021_97,
         );
-        for mode in [ResolveMode::Clamp, ResolveMode::SubStep { max_substeps: 4 }] {
+        for mode in [Resolution::Clamp, Resolution::SubStep { max_substeps: 4 }] {
             let out = solve(&body, &floor(), mode);
             // Nothing stops it: it ends where its motion takes it, a step's flight away.
             assert_eq!(out.impacts, 0, "{mode:?}: {out:?}");
@@ -560,7 +575,7 @@ mod tests {
             Vec2::new(538.6447, -192.960_36),
             -1939.062,
         );
-        for mode in [ResolveMode::Clamp, ResolveMode::SubStep { max_substeps: 4 }] {
+        for mode in [Resolution::Clamp, Resolution::SubStep { max_substeps: 4 }] {
             let out = solve(&body, &floor(), mode);
             assert!(
                 out.position.distance(body.sweep.c0) > 1e-3,
@@ -606,8 +621,8 @@ mod tests {
         }
         let body = moving(ball, Vec2::new(0.0, hi), 0.0, Vec2::new(0.0, -0.5), 3.0);
         for mode in [
-            ResolveMode::Clamp,
-            ResolveMode::SubStep {
+            Resolution::Clamp,
+            Resolution::SubStep {
                 max_substeps: u32::MAX,
             },
         ] {
@@ -663,7 +678,7 @@ mod tests {
             core_radius: 0.125,
         };
         let settings = SolveSettings {
-            mode: ResolveMode::Clamp,
+            mode: Resolution::Clamp,
             linear_slop: 0.005,
             dt: 1.0 / 60.0,
         };

@@ -159,14 +159,14 @@ pub fn separation_tolerance(linear_slop: f32) -> f32 {
     0.25 * linear_slop
 }
 
-/// The most impacts one body may resolve after its first in one step ([`ResolveMode::SubStep`]'s
+/// The most impacts one body may resolve after its first in one step ([`Resolution::SubStep`]'s
 /// `max_substeps` is capped here).
 ///
 /// Every impact costs a time of impact against each target in reach, and the impacts of a
 /// step are kept until they are reported: the cap bounds both. A body that needs more in one
 /// step is trapped, and is clamped.
 ///
-/// [`ResolveMode::SubStep`]: super::ResolveMode::SubStep
+/// [`Resolution::SubStep`]: super::Resolution::SubStep
 pub const MAX_SUBSTEPS: u32 = 64;
 
 /// The most impacts in a row a body may resolve without advancing (it starts a sweep touching

@@ -7,7 +7,7 @@
 //! time of impact of one body against one target, start contacts included), `response` (the
 //! contact impulse) and `body_solver` (one body's step: sub-steps, clamping, outcome).
 
-mod body_solver;
+pub(crate) mod body_solver;
 mod bvh;
 pub mod constants;
 mod cull;
@@ -17,15 +17,14 @@ mod pair;
 mod proxy;
 mod response;
 mod shape;
-mod static_set;
+pub(crate) mod static_set;
 mod sweep;
 #[cfg(test)]
 mod test_support;
 mod toi;
 
-pub use body_solver::{
-    BodyOutcome, BodyState, ImpactRecord, ResolveMode, SolveSettings, solve_body,
-};
+pub use body_solver::Resolution;
+pub(crate) use body_solver::{BodyState, ImpactRecord, SolveSettings, solve_body};
 pub use bvh::{Bvh, QUERY_GROUP};
 pub use constants::{
     LINEAR_SLOP, MAX_POLYGON_VERTICES, MAX_WORLD_COORDINATE, SLOP_PER_COORDINATE_SPACING,
@@ -34,8 +33,7 @@ pub use constants::{
 pub use gjk::{DistanceInput, DistanceOutput, SimplexCache, shape_distance};
 pub use math::{Pose, Rot, atan2, cross, left_perp, right_perp};
 pub use proxy::ShapeProxy;
-pub use response::contact_response;
 pub use shape::{Aabb, Capsule, Circle, MassProperties, Polygon, Segment, Shape, ShapeError};
-pub use static_set::{StaticItem, StaticSet};
+pub(crate) use static_set::{StaticItem, StaticSet};
 pub use sweep::Sweep;
 pub use toi::{ToiConfig, ToiFailure, ToiInput, ToiOutput, ToiState, time_of_impact};

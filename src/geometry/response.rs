@@ -245,7 +245,8 @@ fn clamp_friction(jt: f64, bound: f64) -> f64 {
 /// when `mass` or `inertia` is not above zero, `restitution` is outside `[0, 1]`, `friction`
 /// is negative or `normal` is not a unit vector; [`ToiFailure::ResponseOverflow`] when the new
 /// velocity does not fit in `f32`.
-pub fn contact_response(
+#[cfg(test)]
+pub(crate) fn contact_response(
     velocity: (Vec2, f32),
     r: Vec2,
     normal: Vec2,

@@ -1,38 +1,21 @@
-//! [`CcdConfig`], the plugin's settings, and its [`Resolution`].
+//! [`CcdConfig`], the plugin's settings.
 
 use bevy_ecs::prelude::*;
 use bevy_reflect::prelude::*;
 
-use crate::geometry::LINEAR_SLOP;
+use bevy_reflect::impl_reflect;
 
-/// How bodies are resolved at an impact.
-#[derive(Reflect, Clone, Copy, Debug, PartialEq, Eq)]
-#[reflect(Debug, Clone, PartialEq)]
-pub enum Resolution {
-    /// At an impact with a target the body did not start the step touching, its pose becomes
-    /// its pose at the impact (at the target separation) and the rest of the step's motion is
-    /// dropped; its velocity (if it keeps a [`Velocity`](super::Velocity)) still gets the impact response. The
-    /// contacts a body starts the step with (resting, sliding) get the response and the step
-    /// goes on, as in `SubStep`. A ball bouncing between walls travels 59 % of the sub-stepped
-    /// distance: use `SubStep` for bouncing.
-    Clamp,
-    /// Advance to the impact, respond with an impulse (restitution, friction, mass and
-    /// inertia), spend the remaining fraction of the step from there with a new sweep, search
-    /// again; after `max_substeps` impacts, clamp.
-    SubStep {
-        /// The most impacts handled in one step after the first; contacts resolved without
-        /// advancing count too. The default is 4; values above
-        /// [`MAX_SUBSTEPS`](crate::geometry::constants::MAX_SUBSTEPS) (64) are capped there,
-        /// with one warning.
-        max_substeps: u32,
-    },
-}
+use crate::geometry::{LINEAR_SLOP, Resolution};
 
-impl Default for Resolution {
-    fn default() -> Self {
-        Self::SubStep { max_substeps: 4 }
+// `Resolution` is the geometry layer's (which has no Bevy imports): reflected here.
+impl_reflect!(
+    #[reflect(Debug, Clone, PartialEq, Default)]
+    #[type_path = "bevy_ccd::geometry"]
+    enum Resolution {
+        Clamp,
+        SubStep { max_substeps: u32 },
     }
-}
+);
 
 /// Settings of the plugin.
 ///

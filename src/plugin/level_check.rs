@@ -14,7 +14,7 @@ use super::testing::headless_app;
 use super::workspace::CcdWorkspace;
 use super::{CcdConfig, CcdEnabled, CcdImpact, CcdOutcome, Collider, Hits, Resolution};
 use super::{CcdError, StepPoses, Velocity};
-use crate::geometry::{self, BodyState, ImpactRecord, LINEAR_SLOP, ResolveMode, SolveSettings};
+use crate::geometry::{self, BodyState, ImpactRecord, LINEAR_SLOP, SolveSettings};
 
 const DT: f32 = 1.0 / 60.0;
 
@@ -67,10 +67,7 @@ fn step_level(resolution: Resolution, parallel: bool) -> (Vec<Outcome>, Vec<Outc
 
     let statics = world.resource::<CcdWorkspace>().statics.clone();
     assert_eq!(statics.items().len(), 5_000, "every static is a target");
-    let mode = match resolution {
-        Resolution::Clamp => ResolveMode::Clamp,
-        Resolution::SubStep { max_substeps } => ResolveMode::SubStep { max_substeps },
-    };
+    let mode = resolution;
     let settings = SolveSettings {
         mode,
         linear_slop: LINEAR_SLOP,

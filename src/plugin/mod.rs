@@ -32,11 +32,12 @@ use bevy_ecs::prelude::*;
 use bevy_ecs::schedule::{ScheduleLabel, SingleThreadedExecutor};
 use bevy_time::{Fixed, Time};
 
+pub use crate::geometry::Resolution;
 pub(crate) use components::usable_mass;
 pub use components::{
     BodyMass, CcdEnabled, Collider, Friction, Restitution, StaticCollider, StepPoses, Velocity,
 };
-pub use config::{CcdConfig, Resolution};
+pub use config::CcdConfig;
 pub use diagnostics::CcdDiagnostics;
 pub use outcome::{CcdError, CcdImpact, CcdOutcome, Hits};
 use workspace::CcdWorkspace;

@@ -19,9 +19,7 @@ use super::workspace::{
 use super::write::{WriteQuery, write_lane};
 use super::{CcdConfig, CcdDiagnostics, Collider, Resolution, StaticCollider, StepPoses};
 use crate::geometry::constants::MAX_SUBSTEPS;
-use crate::geometry::{
-    self, BodyState, ResolveMode, ShapeProxy, SolveSettings, StaticSet, solve_body,
-};
+use crate::geometry::{self, BodyState, ShapeProxy, SolveSettings, StaticSet, solve_body};
 
 /// Lanes per worker: enough that workers finish together when bodies cost unevenly.
 const LANES_PER_WORKER: usize = 16;
@@ -71,10 +69,7 @@ pub(crate) fn solve(
     if workspace.lanes.len() < lane_count {
         workspace.lanes.resize_with(lane_count, Lane::default);
     }
-    let mode = match config.resolution {
-        Resolution::Clamp => ResolveMode::Clamp,
-        Resolution::SubStep { max_substeps } => ResolveMode::SubStep { max_substeps },
-    };
+    let mode = config.resolution;
     let settings = SolveSettings {
         mode,
         linear_slop: config.linear_slop,

@@ -42,7 +42,28 @@ pub use super::arena::{
     generate_level, spawn_arena, spawn_level,
 };
 pub use super::level_check::{check_level_against_geometry, check_record_passes};
-use super::{CcdConfig, CcdEnabled, CcdPlugin, Collider, StaticCollider, Velocity};
+
+/// The solver's insides, for the scene bench's split of a step into hierarchy queries, the
+/// per-body solve and the plugin's own work. Not a stable API: they change with the solver.
+pub mod solver {
+    pub use crate::geometry::body_solver::{
+        BodyOutcome, BodyState, ImpactRecord, SolveSettings, solve_body,
+    };
+    pub use crate::geometry::static_set::{StaticItem, StaticSet};
+}
+
+/// Puts a body back at `to` as the last step's solve would have left it there: the
+/// `Transform` is written without a change flag and the body's [`StepPoses`] resolved pose
+/// with it, so that the next step takes its start from there, as in a game loop where only the
+/// movement systems move bodies. For benches that repeat one step.
+pub fn rewind(transform: &mut Mut<Transform>, poses: &mut Mut<StepPoses>, to: Transform) {
+    *transform.bypass_change_detection() = to;
+    let (position, angle) = super::record::planar_pose(&to);
+    let poses = poses.bypass_change_detection();
+    poses.resolved_position = position;
+    poses.resolved_angle = angle;
+}
+use super::{CcdConfig, CcdEnabled, CcdPlugin, Collider, StaticCollider, StepPoses, Velocity};
 use crate::geometry::{Aabb, LINEAR_SLOP, Pose};
 
 /// An app with the time and CCD plugins where every `update` runs exactly one fixed step of

@@ -79,7 +79,7 @@ pub fn app_with(resolution: Resolution, gravity: Vec2, integrate: bool) -> App {
     .insert_resource(Gravity(gravity))
     .init_resource::<Log>()
     .add_systems(FixedUpdate, (count_step, push_bodies, jump_bodies).chain())
-    .add_systems(FixedPostUpdate, collect_impacts.after(CcdSystems::Resolve));
+    .add_systems(FixedPostUpdate, collect_impacts.after(CcdSystems::Step));
     if integrate {
         app.add_systems(FixedUpdate, integrate_velocity.before(push_bodies));
     }
@@ -164,10 +164,10 @@ pub fn velocity(app: &App, e: Entity) -> Velocity {
     *app.world().get::<Velocity>(e).expect("body has a Velocity")
 }
 
-pub fn toi(app: &App, e: Entity) -> TimeOfImpact {
+pub fn toi(app: &App, e: Entity) -> CcdOutcome {
     *app.world()
-        .get::<TimeOfImpact>(e)
-        .expect("body has a TimeOfImpact")
+        .get::<CcdOutcome>(e)
+        .expect("body has a CcdOutcome")
 }
 
 /// The impacts logged at step `step` (1-based, as counted by [`Log`]).
