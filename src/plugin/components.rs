@@ -500,7 +500,7 @@ impl Default for Friction {
 #[reflect(Component, Debug, Clone)]
 pub struct BodyMass {
     /// Mass (kg), finite and at least `f32::MIN_POSITIVE` (a subnormal mass has no finite
-    /// reciprocal); otherwise the body is not swept ([`CcdError::InvalidBodyData`]).
+    /// reciprocal); otherwise the body is not swept ([`CcdError::InvalidBodyData`](super::CcdError::InvalidBodyData)).
     pub mass: f32,
     /// Rotational inertia about the centre of mass (kg m²), as `mass`.
     pub inertia: f32,

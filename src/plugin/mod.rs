@@ -2,9 +2,9 @@
 //! app's schedules, [`CcdStepSystems`] inside its own), the [`CcdConfig`] resource, the
 //! components, the [`CcdImpact`] message and the [`CcdDiagnostics`] resource.
 //!
-//! One file per phase: [`record`] (start and end poses), [`statics`] (the static hierarchy),
-//! [`solve`] (listing, broad phase and solver per lane, with [`gather`] and [`write`]),
-//! [`impacts`] (messages); [`parallel`] hands out the work of each.
+//! One file per phase: `record` (start and end poses), `statics` (the static hierarchy),
+//! `solve` (listing, broad phase and solver per lane, with `gather` and `write`), `impacts`
+//! (messages); `parallel` hands out the work of each.
 
 #[cfg(any(test, feature = "testing"))]
 mod arena;
@@ -112,7 +112,7 @@ impl Default for CcdPlugin {
     }
 }
 
-/// The schedule [`CcdPlugin`] runs [`record_start`](record::record_start) in, from its start
+/// The schedule [`CcdPlugin`] records the start poses in, from its start
 /// schedule, in the set [`CcdSystems::RecordStart`].
 ///
 /// On the single-threaded executor, on the thread that runs the plugin's start schedule.
@@ -221,7 +221,7 @@ impl Plugin for CcdPlugin {
 pub enum CcdSystems {
     /// Records the start pose of every CCD body, in the plugin's start schedule (`FixedFirst`
     /// by default) by running [`CcdStartSchedule`]; also the set of
-    /// [`record_start`](record::record_start) inside that schedule.
+    /// the start-pose system inside that schedule.
     ///
     /// With [`CcdConfig::parallel`], split over the pool only when 4,096 or more bodies'
     /// `Transform`s changed since the last step: the others' start is copied from where the
