@@ -432,8 +432,8 @@ fn a_run_condition_on_a_phase_is_honoured() {
         ..Default::default()
     })
     .insert_resource(SolveOn(true));
-    // Enough bodies for several lanes (at least 64 each): 299 flying free above the wall,
-    // and one that crosses it in every step.
+    // Enough bodies for several lanes of the solve (at least 64 each): 299 flying free above
+    // the wall, and one that crosses it in every step.
     spawn_wall(&mut app, Vec2::new(0.0, 0.0), 0.05, 1.0);
     for k in 0..299 {
         let at = Vec2::new(-10.0 + 0.05 * k as f32, 5.0);
@@ -446,6 +446,11 @@ fn a_run_condition_on_a_phase_is_honoured() {
         Vec2::new(120.0, 0.0),
         (),
     );
+    let stopped = |app: &App| {
+        let outcome = toi(app, hitting);
+        assert!(matches!(outcome, CcdOutcome::Hit(_)), "{outcome:?}");
+        assert!(position(app, hitting).x < 0.0, "stopped before the wall");
+    };
     // Back to the start, at full speed: the next step crosses the wall (2 m a step).
     let relaunch = |app: &mut App| {
         let world = app.world_mut();
@@ -453,12 +458,7 @@ fn a_run_condition_on_a_phase_is_honoured() {
         world.get_mut::<Velocity>(hitting).expect("ball").linear = Vec2::new(120.0, 0.0);
     };
     step(&mut app);
-    assert!(
-        matches!(toi(&app, hitting), CcdOutcome::Hit(_)),
-        "{:?}",
-        toi(&app, hitting)
-    );
-    assert!(position(&app, hitting).x < 0.0, "stopped before the wall");
+    stopped(&app);
 
     // A run condition on a phase: it holds.
     app.configure_sets(
@@ -467,12 +467,7 @@ fn a_run_condition_on_a_phase_is_honoured() {
     );
     relaunch(&mut app);
     step(&mut app);
-    assert!(
-        matches!(toi(&app, hitting), CcdOutcome::Hit(_)),
-        "{:?}",
-        toi(&app, hitting)
-    );
-    assert!(position(&app, hitting).x < 0.0, "stopped before the wall");
+    stopped(&app);
     app.world_mut().resource_mut::<SolveOn>().0 = false;
     relaunch(&mut app);
     step(&mut app);

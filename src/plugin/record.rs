@@ -77,7 +77,7 @@ pub(crate) fn record_start(
             let total = tables.iter().map(|(_, _, enabled)| enabled.len()).sum();
             // Only a body whose `Transform` changed costs an `atan2` (15 ns); the others cost
             // about 2 ns, and the 10,000 of a scene moved by a game loop take 23 µs, less than
-            // waking a pool thread (20-36 µs, measured). So the pass splits over the pool only
+            // waking a pool thread (20-36 µs). So the pass splits over the pool only
             // when enough `Transform`s changed; counting them reads one tick per body.
             let changed = match written_at {
                 Some(at) => tables
@@ -297,15 +297,14 @@ fn for_each_piece<P: Send>(
 const RECORD_PIECES_PER_WORKER: usize = 16;
 /// Fewest bodies that need an angle for a record pass to split over the pool.
 ///
-/// Waking a pool thread takes `L` = 20-36 µs (measured at 10,000 bodies: the helper's first
-/// piece starts that long after the pass). A pass of `T` serial time then takes about
+/// Waking a pool thread takes `L` = 20-36 µs (the helper's first piece starts that long after
+/// the pass). A pass of `T` serial time then takes about
 /// `L + (T - L) / 2 = (T + L) / 2` on two workers, which beats `T` only when `T > L`. An
 /// angle costs about 15 ns a body, so `T > L` from about 2,400 bodies; at 4,096, `T` is about
 /// 60 µs and the split saves 10-20 µs.
 const RECORD_PARALLEL_MIN: usize = 4096;
 /// Tables a record pass keeps on the stack (more spill to the heap).
 const RECORD_TABLES: usize = 8;
-/// Fewest bodies in a piece of a record pass on the pool: smaller ones cost more than they
-/// save (measured with Bevy's `par_iter` before the pieces: 1,000 bodies on two threads,
-/// 0.075 ms in 64 batches, 0.051 in 8).
+/// Fewest bodies in a piece of a record pass on the pool: a piece's few microseconds of work
+/// must outweigh taking it from the shared counter.
 const RECORD_MIN_BATCH: usize = 128;

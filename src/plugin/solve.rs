@@ -195,7 +195,7 @@ pub(crate) fn solve_lane(
     visit.clear();
     // The shapes of the bodies to solve are read from their colliders in batches: the
     // reads of one batch are independent, so their cache misses overlap instead of each
-    // stalling a time of impact (4 % of a 10,000-body step before, `perf`).
+    // stalling a time of impact.
     let placeholder = (ShapeProxy::from_parts(&[Vec2::ZERO], 0.0), 0.0);
     let mut shapes = [placeholder; SOLVE_BATCH];
     let mut batch = [0usize; SOLVE_BATCH];
@@ -209,7 +209,7 @@ pub(crate) fn solve_lane(
             // and `solve_body` would only confirm that (most bodies of a step).
             if body.error.is_none() && body.candidate_count > 0 {
                 // The targets' records, touched alongside the colliders so that these
-                // misses overlap too (time of impact −10 % at 50,000 × 100,000).
+                // misses overlap too.
                 if touch {
                     let start = body.candidates as usize;
                     let list = &candidates[start..start + body.candidate_count as usize];
