@@ -41,7 +41,10 @@ use super::sweep::Sweep;
 /// *separated*, which is returned here without the advancement. One more slop of margin covers
 /// GJK's rounding; the test is done relative to `c0` so that far from the origin no precision
 /// is lost.
-#[allow(clippy::too_many_arguments)] // the body, its sweep and interval, the target and frame
+#[allow(clippy::too_many_arguments)]
+// the body, its sweep and interval, the target and frame
+// Hot, and called from `solve_body` in another module (so possibly another codegen unit).
+#[inline]
 pub(super) fn out_of_reach(
     reach: f32,
     proxy: &ShapeProxy,
@@ -148,6 +151,8 @@ fn hit_margin(proxy: &ShapeProxy, target_radius: f32, slop: f32) -> f32 {
 /// core's box (target frame) grown by that much. The centre moves on a straight line, so the
 /// fractions at which it is inside that box form one interval, found by clipping the line
 /// against the box's two slabs.
+// Hot, and called from `solve_body` in another module (so possibly another codegen unit).
+#[inline]
 pub(super) fn reach_interval(
     reach: f32,
     proxy: &ShapeProxy,

@@ -95,7 +95,10 @@ fn patch_approaching(sweep: &Sweep, patch: (Vec2, Vec2), normal: Vec2, threshold
 ///
 /// Only `[0, t_max]` of the sweep is searched: the caller passes the earliest hit found so far
 /// against other targets, since a later one could not change the answer.
-#[allow(clippy::too_many_arguments)] // the body, its sweep and frame, the target and its frame
+#[allow(clippy::too_many_arguments)]
+// the body, its sweep and frame, the target and its frame
+// Hot, and called from `solve_body` in another module (so possibly another codegen unit).
+#[inline]
 pub(super) fn pair_toi(
     body: &BodyState,
     reach: f32,

@@ -102,6 +102,8 @@ fn narrow((v, w): (DVec2, f64)) -> Result<(Vec2, f32), ToiFailure> {
 /// Friction acts at the middle of the patch, bounded by the total normal impulse.
 ///
 /// Errors as [`contact_response`].
+// Hot, and called from `solve_body` in another module (so possibly another codegen unit).
+#[inline]
 pub(super) fn patch_response(
     velocity: (Vec2, f32),
     r: (Vec2, Vec2),

@@ -288,7 +288,14 @@ fn for_each_piece<P: Send>(
 ) {
     let count = pieces.len();
     let produce = |_: &mut (), push: &mut dyn FnMut(P)| pieces.into_iter().for_each(push);
-    hand_out(pool, count, &mut (), produce, work, |_, _| {});
+    hand_out(
+        pool,
+        count,
+        &mut (),
+        produce,
+        (work, |_: &mut P| {}),
+        |_, _| {},
+    );
 }
 
 /// Pieces per worker of the record passes when they split over the pool ([`for_each_piece`]):

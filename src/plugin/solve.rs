@@ -122,10 +122,12 @@ pub(crate) fn solve(
                 }
             });
         },
-        |(chunk, lane)| {
-            gather.lane(chunk, lane);
-            solve_lane(chunk, lane, statics, &settings, &colliders);
-        },
+        (
+            |(chunk, lane): &mut (&mut [BodyEntry], &mut Lane)| gather.lane(chunk, lane),
+            |(chunk, lane): &mut (&mut [BodyEntry], &mut Lane)| {
+                solve_lane(chunk, lane, statics, &settings, &colliders);
+            },
+        ),
         |queries, (chunk, lane)| write_lane(chunk, lane, &mut queries.p1(), static_entities),
     );
     entries.truncate(listed);
