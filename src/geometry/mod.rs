@@ -31,7 +31,8 @@ pub use constants::{
     max_world_coordinate,
 };
 pub use gjk::{DistanceInput, DistanceOutput, SimplexCache, shape_distance};
-pub use math::{Pose, Rot, atan2, cross, left_perp, right_perp};
+pub(crate) use math::atan2;
+pub use math::{Pose, Rot};
 pub use proxy::ShapeProxy;
 pub use shape::{Aabb, Capsule, Circle, MassProperties, Polygon, Segment, Shape, ShapeError};
 pub(crate) use static_set::{StaticItem, StaticSet};
