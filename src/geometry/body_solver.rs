@@ -20,8 +20,8 @@ use super::constants::{
 };
 use super::cull::reach_interval;
 use super::math::Pose;
+pub use super::pair::BodyState;
 use super::pair::{Contact, PairOutcome, contact_patch, pair_toi};
-use super::proxy::ShapeProxy;
 use super::response::{Response, patch_response};
 use super::static_set::{StaticSet, TargetRecord};
 use super::sweep::Sweep;
@@ -64,31 +64,6 @@ pub struct SolveSettings {
     pub linear_slop: f32,
     /// Length of the step (s), positive and finite.
     pub dt: f32,
-}
-
-/// A body as the solver needs it.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct BodyState {
-    /// Shape in the body frame.
-    pub proxy: ShapeProxy,
-    /// Centre of mass in the body frame (m).
-    pub local_center: Vec2,
-    /// Mass (kg), positive.
-    pub mass: f32,
-    /// Rotational inertia about the centre of mass (kg m²), positive.
-    pub inertia: f32,
-    /// Restitution in `[0, 1]`.
-    pub restitution: f32,
-    /// Coulomb friction coefficient.
-    pub friction: f32,
-    /// Motion over the step, from the start pose to where the user moved the body.
-    pub sweep: Sweep,
-    /// The body's own velocity (m/s, rad/s), if it keeps one; otherwise the response acts on
-    /// the velocity implied by the step's displacement.
-    pub velocity: Option<(Vec2, f32)>,
-    /// Radius of the core circle used when the body starts a step deep in a target
-    /// (Box2D's fallback: a quarter of the shape's smallest extent).
-    pub core_radius: f32,
 }
 
 /// One impact found for a body.
@@ -478,7 +453,7 @@ mod tests {
     use super::*;
     use crate::geometry::static_set::StaticItem;
     use crate::geometry::test_support::separation;
-    use crate::geometry::{Capsule, Circle, Polygon, Shape};
+    use crate::geometry::{Capsule, Circle, Polygon, Shape, ShapeProxy};
 
     /// The surface separation (m, radii included) of a body at `pose` from `target`.
     fn gap(proxy: &ShapeProxy, pose: Pose, target: &StaticItem) -> f32 {

@@ -12,7 +12,6 @@
 
 use glam::Vec2;
 
-use super::body_solver::BodyState;
 use super::constants::{FINEST_TOLERANCE, separation_tolerance};
 use super::cull::out_of_reach;
 use super::math::{Pose, left_perp, right_perp};
@@ -23,6 +22,31 @@ use super::toi::{
     BodyFrame, ToiConfig, ToiFailure, ToiInput, ToiOutput, ToiState, time_of_impact,
     time_of_impact_framed,
 };
+
+/// A body as the solver needs it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BodyState {
+    /// Shape in the body frame.
+    pub proxy: ShapeProxy,
+    /// Centre of mass in the body frame (m).
+    pub local_center: Vec2,
+    /// Mass (kg), positive.
+    pub mass: f32,
+    /// Rotational inertia about the centre of mass (kg m²), positive.
+    pub inertia: f32,
+    /// Restitution in `[0, 1]`.
+    pub restitution: f32,
+    /// Coulomb friction coefficient.
+    pub friction: f32,
+    /// Motion over the step, from the start pose to where the user moved the body.
+    pub sweep: Sweep,
+    /// The body's own velocity (m/s, rad/s), if it keeps one; otherwise the response acts on
+    /// the velocity implied by the step's displacement.
+    pub velocity: Option<(Vec2, f32)>,
+    /// Radius of the core circle used when the body starts a step deep in a target
+    /// (Box2D's fallback: a quarter of the shape's smallest extent).
+    pub core_radius: f32,
+}
 
 /// A contact a pair test found: where (world), the unit normal toward the target, the surface
 /// separation, and the ends of its contact patch (world) when the test needed them.

@@ -147,7 +147,7 @@ fn random_body_shape(rng: &mut SceneRng) -> Shape {
 }
 
 fn pose_of(transform: &Transform) -> Pose {
-    let (p, angle) = super::record::planar_pose(transform);
+    let (p, angle) = super::components::planar_pose(transform);
     Pose::new(p, angle)
 }
 

@@ -217,7 +217,7 @@ fn collider_inserted(mut world: DeferredWorld, context: HookContext) {
 fn poses_inserted(mut world: DeferredWorld, context: HookContext) {
     let entity = world.entity(context.entity);
     let shape = entity.get::<Collider>().map(ShapeSummary::of);
-    let pose = entity.get::<Transform>().map(super::record::planar_pose);
+    let pose = entity.get::<Transform>().map(planar_pose);
     let enabled = entity.get::<CcdEnabled>().is_some_and(|e| e.0);
     let step = world
         .get_resource::<CcdWorkspace>()
@@ -267,6 +267,22 @@ impl ShapeSummary {
         sweep.reach = self.reach;
         sweep.mass_ok = self.mass_ok;
     }
+}
+
+/// The 2D pose of a `Transform`: translation x, y and the angle of the rotated x axis.
+pub(crate) fn pose_of(transform: &Transform) -> Option<(Vec2, f32)> {
+    let (p, angle) = planar_pose(transform);
+    (p.is_finite() && angle.is_finite() && transform.rotation.is_finite()).then_some((p, angle))
+}
+
+/// Translation x, y and the angle of the rotated x axis, unchecked.
+pub(crate) fn planar_pose(transform: &Transform) -> (Vec2, f32) {
+    // The x and y components of the rotated x axis, from the quaternion (x, y, z, w):
+    // R e_x = (1 - 2 (y² + z²), 2 (x y + w z), 2 (x z - w y)); the third is not needed.
+    let q = transform.rotation;
+    let ax = 1.0 - 2.0 * (q.y * q.y + q.z * q.z);
+    let ay = 2.0 * (q.x * q.y + q.w * q.z);
+    (transform.translation.truncate(), geometry::atan2(ay, ax))
 }
 
 /// Whether a mass and an inertia can be used by the impulse response: finite and at least the

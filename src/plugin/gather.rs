@@ -3,6 +3,7 @@
 //! the query of the static hierarchy with each swept bound ([`Gather::lane`]).
 
 use bevy_ecs::prelude::*;
+use glam::Vec2;
 
 use super::outcome::{CcdError, CcdOutcome};
 use super::workspace::{
@@ -19,6 +20,38 @@ use crate::geometry::{self, Aabb, QUERY_GROUP, StaticSet};
 /// otherwise one at a time, where the grouping costs the time of impact after it more than
 /// it saves.
 pub(crate) const GROUP_MIN_BODIES: usize = 4096;
+
+impl BodyEntry {
+    /// An entry with the recorded poses of `poses`, nothing else filled in yet.
+    pub(crate) fn new(entity: Entity, poses: &StepPoses) -> Self {
+        Self {
+            entity,
+            sweep: geometry::Sweep {
+                local_center: poses.local_center,
+                c0: poses.start_position,
+                c1: poses.end_position,
+                a0: poses.start_angle,
+                a1: poses.end_angle,
+            },
+            mass: 0.0,
+            inertia: 0.0,
+            restitution: 0.0,
+            friction: 0.0,
+            velocity: Vec2::ZERO,
+            angular: 0.0,
+            candidates: 0,
+            candidate_count: 0,
+            impacts: 0,
+            impact_count: 0,
+            substeps: 0,
+            position: Vec2::ZERO,
+            angle: 0.0,
+            flags: if poses.mass_ok { COLLIDER_MASS_OK } else { 0 },
+            error: None,
+            reach: poses.reach,
+        }
+    }
+}
 
 /// The query the bodies are listed with.
 pub(crate) type ListQuery<'w, 's> = Query<

@@ -11,26 +11,10 @@ use bevy_transform::components::Transform;
 use glam::Vec2;
 use smallvec::SmallVec;
 
+use super::components::pose_of;
 use super::parallel::{MAX_ITEMS, hand_out, pool, workers};
 use super::workspace::CcdWorkspace;
 use super::{CcdConfig, CcdEnabled, StaticCollider, StepPoses, Velocity};
-use crate::geometry;
-
-/// The 2D pose of a `Transform`: translation x, y and the angle of the rotated x axis.
-pub(crate) fn pose_of(transform: &Transform) -> Option<(Vec2, f32)> {
-    let (p, angle) = planar_pose(transform);
-    (p.is_finite() && angle.is_finite() && transform.rotation.is_finite()).then_some((p, angle))
-}
-
-/// Translation x, y and the angle of the rotated x axis, unchecked.
-pub(crate) fn planar_pose(transform: &Transform) -> (Vec2, f32) {
-    // The x and y components of the rotated x axis, from the quaternion (x, y, z, w):
-    // R e_x = (1 - 2 (y² + z²), 2 (x y + w z), 2 (x z - w y)); the third is not needed.
-    let q = transform.rotation;
-    let ax = 1.0 - 2.0 * (q.y * q.y + q.z * q.z);
-    let ay = 2.0 * (q.x * q.y + q.w * q.z);
-    (transform.translation.truncate(), geometry::atan2(ay, ax))
-}
 
 /// The length of a step (s): the config's, else the fixed timestep's.
 pub(crate) fn step_length(config: &CcdConfig, time: Option<&Time<Fixed>>) -> f32 {

@@ -5,7 +5,7 @@ use bevy_ecs::prelude::*;
 use bevy_ecs::system::SystemParam;
 use bevy_transform::components::Transform;
 
-use super::record::pose_of;
+use super::components::pose_of;
 use super::workspace::CcdWorkspace;
 use super::{CcdConfig, CcdDiagnostics, Collider, StaticCollider};
 use crate::geometry::{self, Aabb, Pose, StaticItem};

@@ -58,7 +58,7 @@ pub mod solver {
 /// movement systems move bodies. For benches that repeat one step.
 pub fn rewind(transform: &mut Mut<Transform>, poses: &mut Mut<StepPoses>, to: Transform) {
     *transform.bypass_change_detection() = to;
-    let (position, angle) = super::record::planar_pose(&to);
+    let (position, angle) = super::components::planar_pose(&to);
     let poses = poses.bypass_change_detection();
     poses.resolved_position = position;
     poses.resolved_angle = angle;
@@ -191,7 +191,7 @@ pub fn bodies_outside(world: &mut World, bounds: Aabb) -> Vec<Entity> {
     let mut out: Vec<Entity> = query
         .iter(world)
         .filter(|(_, transform, collider)| {
-            let (p, angle) = super::record::planar_pose(transform);
+            let (p, angle) = super::components::planar_pose(transform);
             let pose = Pose::new(p, angle);
             let aabb = collider.proxy().aabb(pose);
             !(aabb.is_valid() && bounds.contains(&aabb))

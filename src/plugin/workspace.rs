@@ -6,7 +6,6 @@ use bevy_ecs::change_detection::Tick;
 use bevy_ecs::prelude::*;
 use glam::Vec2;
 
-use super::components::StepPoses;
 use super::outcome::CcdError;
 use crate::geometry::{self, ImpactRecord, StaticSet};
 
@@ -41,7 +40,8 @@ pub(crate) struct BodyEntry {
     pub(crate) flags: u8,
     /// Why the body was not swept, or the time of impact that failed.
     pub(crate) error: Option<CcdError>,
-    /// The shape's reach about its centre of mass ([`StepPoses`]' copy of the collider's).
+    /// The shape's reach about its centre of mass ([`StepPoses`](super::StepPoses)' copy of the
+    /// collider's).
     pub(crate) reach: f32,
 }
 
@@ -59,38 +59,6 @@ pub(crate) const WAS_CLEAR: u8 = 16;
 /// [`BodyEntry::flags`]: the solver moved the body out of a contact too close to search from
 /// ([`geometry::BodyOutcome::nudged`]), so it does not end at its user's pose.
 pub(crate) const NUDGED: u8 = 32;
-
-impl BodyEntry {
-    /// An entry with the recorded poses of `poses`, nothing else filled in yet.
-    pub(crate) fn new(entity: Entity, poses: &StepPoses) -> Self {
-        Self {
-            entity,
-            sweep: geometry::Sweep {
-                local_center: poses.local_center,
-                c0: poses.start_position,
-                c1: poses.end_position,
-                a0: poses.start_angle,
-                a1: poses.end_angle,
-            },
-            mass: 0.0,
-            inertia: 0.0,
-            restitution: 0.0,
-            friction: 0.0,
-            velocity: Vec2::ZERO,
-            angular: 0.0,
-            candidates: 0,
-            candidate_count: 0,
-            impacts: 0,
-            impact_count: 0,
-            substeps: 0,
-            position: Vec2::ZERO,
-            angle: 0.0,
-            flags: if poses.mass_ok { COLLIDER_MASS_OK } else { 0 },
-            error: None,
-            reach: poses.reach,
-        }
-    }
-}
 
 /// The buffers of one lane: a contiguous run of bodies that one thread lists, queries,
 /// solves and writes back. Flat lists instead of one small vector per body: a few bytes per
