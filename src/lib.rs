@@ -43,8 +43,9 @@ pub mod prelude {
     pub use crate::geometry::{Aabb, ShapeError};
     pub use crate::plugin::{
         BodyMass, CcdConfig, CcdDiagnostics, CcdEnabled, CcdError, CcdImpact, CcdOutcome,
-        CcdPlugin, CcdSchedule, CcdStartSchedule, CcdStepSystems, CcdSystems, Collider, Friction,
-        Hits, Resolution, Restitution, StaticCollider, StepPoses, Velocity,
+        CcdPlugin, CcdSchedule, CcdStartSchedule, CcdStepSystems, CcdSystems, Collider,
+        CollisionLayers, Friction, Hits, Resolution, Restitution, StaticCollider, StepPoses,
+        Velocity,
     };
     pub use glam::Vec2;
 }

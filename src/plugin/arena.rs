@@ -6,7 +6,10 @@ use bevy_ecs::prelude::*;
 use bevy_transform::components::Transform;
 use glam::{Quat, Vec2};
 
-use super::{BodyMass, CcdEnabled, Collider, Friction, Restitution, StaticCollider, Velocity};
+use super::{
+    BodyMass, CcdEnabled, Collider, CollisionLayers, Friction, Restitution, StaticCollider,
+    Velocity,
+};
 use crate::geometry::{
     Aabb, Capsule, Circle, DistanceInput, Polygon, Pose, Shape, ShapeProxy, shape_distance,
 };
@@ -259,28 +262,39 @@ pub fn spawn_arena(world: &mut World, config: &ArenaConfig) -> Arena {
     }
 }
 
-/// The deepest overlap (m, positive) of any CCD body with any static, with the pair; 0 when
-/// nothing overlaps. Brute force over bounding-box-overlapping pairs, independent of the
-/// plugin's broad phase.
+/// The deepest overlap (m, positive) of any CCD body with any static its
+/// [`CollisionLayers`] let it hit, with the pair; 0 when nothing overlaps. Brute force over
+/// bounding-box-overlapping pairs, independent of the plugin's broad phase.
 pub fn deepest_penetration(world: &mut World) -> (f32, Option<(Entity, Entity)>) {
-    let mut statics =
-        world.query_filtered::<(Entity, &Collider, &Transform), With<StaticCollider>>();
-    let targets: Vec<(Entity, ShapeProxy, Pose, Aabb)> = statics
+    type Item<'a> = (
+        Entity,
+        &'a Collider,
+        &'a Transform,
+        Option<&'a CollisionLayers>,
+    );
+    let mut statics = world.query_filtered::<Item, With<StaticCollider>>();
+    let targets: Vec<(Entity, ShapeProxy, Pose, Aabb, CollisionLayers)> = statics
         .iter(world)
-        .map(|(e, c, t)| {
+        .map(|(e, c, t, l)| {
             let pose = pose_of(t);
-            (e, *c.proxy(), pose, c.proxy().aabb(pose))
+            (
+                e,
+                *c.proxy(),
+                pose,
+                c.proxy().aabb(pose),
+                l.copied().unwrap_or_default(),
+            )
         })
         .collect();
-    let mut bodies = world
-        .query_filtered::<(Entity, &Collider, &Transform), (With<CcdEnabled>, Without<StaticCollider>)>();
+    let mut bodies = world.query_filtered::<Item, (With<CcdEnabled>, Without<StaticCollider>)>();
     let mut deepest = 0.0f32;
     let mut pair = None;
-    for (entity, collider, transform) in bodies.iter(world) {
+    for (entity, collider, transform, layers) in bodies.iter(world) {
         let pose = pose_of(transform);
         let aabb = collider.proxy().aabb(pose);
-        for (target, proxy, tpose, taabb) in &targets {
-            if !aabb.overlaps(taabb) {
+        let layers = layers.copied().unwrap_or_default();
+        for (target, proxy, tpose, taabb, target_layers) in &targets {
+            if !aabb.overlaps(taabb) || !layers.interacts(*target_layers) {
                 continue;
             }
             // Measured about the body's origin: far from the world origin the difference of

@@ -10,7 +10,8 @@ use super::workspace::{
     BodyEntry, COLLIDER_MASS_OK, HAS_MASS, HAS_VELOCITY, Lane, WAS_CLEAR, Warned,
 };
 use super::{
-    BodyMass, Collider, Friction, Restitution, StaticCollider, StepPoses, Velocity, usable_mass,
+    BodyMass, Collider, CollisionLayers, Friction, Restitution, StaticCollider, StepPoses,
+    Velocity, usable_mass,
 };
 use crate::geometry::{self, Aabb, QUERY_GROUP, StaticSet};
 
@@ -48,6 +49,7 @@ impl BodyEntry {
             angle: 0.0,
             flags: if poses.mass_ok { COLLIDER_MASS_OK } else { 0 },
             error: None,
+            layers: CollisionLayers::DEFAULT,
             reach: poses.reach,
         }
     }
@@ -66,6 +68,7 @@ pub(crate) type ListQuery<'w, 's> = Query<
         Option<&'static Restitution>,
         Option<&'static Friction>,
         Option<&'static BodyMass>,
+        Option<&'static CollisionLayers>,
     ),
     Without<StaticCollider>,
 >;
@@ -94,7 +97,8 @@ pub(crate) fn list_bodies<'a>(
 ) -> usize {
     let mut rest = slots;
     let (mut listed, mut in_lane) = (0, 0);
-    for (entity, mut sweep, mut toi, has_collider, velocity, restitution, friction, mass) in bodies
+    for (entity, mut sweep, mut toi, has_collider, velocity, restitution, friction, mass, layers) in
+        bodies
     {
         let swept = sweep.recorded && sweep.recorded_in == listing.step;
         if !swept || !has_collider {
@@ -119,6 +123,9 @@ pub(crate) fn list_bodies<'a>(
             entry.velocity = v.linear;
             entry.angular = v.angular;
             entry.flags |= HAS_VELOCITY;
+        }
+        if let Some(layers) = layers {
+            entry.layers = *layers;
         }
         if let Some(m) = mass {
             entry.mass = m.mass;
@@ -211,12 +218,52 @@ pub(crate) struct Gather<'a, 'w, 's, 'c> {
     pub(crate) margin: f32,
     /// Whether the bodies' queries are walked side by side (see [`GROUP_MIN_BODIES`]).
     pub(crate) grouping: bool,
+    /// Each target's layers, in target order; empty when all have the default.
+    pub(crate) static_layers: &'a [CollisionLayers],
 }
 
 impl Gather<'_, '_, '_, '_> {
     /// Checks the data of the lane's bodies ([`fill`]) and lists each one's candidate targets,
-    /// the statics within its swept bound. Bodies with bad data get an error and no candidate.
+    /// the statics within its swept bound whose layers it interacts with. Bodies with bad data
+    /// get an error and no candidate.
     pub(crate) fn lane(&self, chunk: &mut [BodyEntry], lane: &mut Lane) {
+        self.query_lane(chunk, lane);
+        let layered = !self.static_layers.is_empty()
+            || chunk.iter().any(|b| b.layers != CollisionLayers::DEFAULT);
+        if layered {
+            self.filter_layers(chunk, lane);
+        }
+    }
+
+    /// Drops the candidates a body's layers and the target's do not let it hit
+    /// ([`CollisionLayers::interacts`]), before any time of impact is computed. The bodies'
+    /// candidate runs lie in `lane.candidates` in body order, so they are compacted in place.
+    fn filter_layers(&self, chunk: &mut [BodyEntry], lane: &mut Lane) {
+        let layers_of = |target: u32| {
+            self.static_layers
+                .get(target as usize)
+                .copied()
+                .unwrap_or_default()
+        };
+        let mut kept = 0;
+        for body in chunk {
+            let (start, count) = (body.candidates as usize, body.candidate_count as usize);
+            let first = kept;
+            for read in start..start + count {
+                let target = lane.candidates[read];
+                if body.layers.interacts(layers_of(target)) {
+                    lane.candidates[kept] = target;
+                    kept += 1;
+                }
+            }
+            body.candidates = first as u32;
+            body.candidate_count = (kept - first) as u32;
+        }
+        lane.candidates.truncate(kept);
+    }
+
+    /// The broad phase of a lane: every body's candidate targets, by its swept bound alone.
+    fn query_lane(&self, chunk: &mut [BodyEntry], lane: &mut Lane) {
         lane.candidates.clear();
         // Nothing of the last step survives into this one's write-back, even if the solve
         // does not run.

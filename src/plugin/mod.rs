@@ -13,6 +13,7 @@ mod config;
 mod diagnostics;
 mod gather;
 mod impacts;
+mod layers;
 #[cfg(any(test, feature = "testing"))]
 mod level_check;
 mod outcome;
@@ -39,6 +40,7 @@ pub use components::{
 };
 pub use config::CcdConfig;
 pub use diagnostics::CcdDiagnostics;
+pub use layers::CollisionLayers;
 pub use outcome::{CcdError, CcdImpact, CcdOutcome, Hits};
 use workspace::CcdWorkspace;
 
@@ -175,7 +177,8 @@ impl Plugin for CcdPlugin {
             .register_type::<Velocity>()
             .register_type::<Restitution>()
             .register_type::<Friction>()
-            .register_type::<BodyMass>();
+            .register_type::<BodyMass>()
+            .register_type::<CollisionLayers>();
         for label in [CcdStartSchedule.intern(), CcdSchedule.intern()] {
             app.init_schedule(label);
             app.edit_schedule(label, |schedule| {

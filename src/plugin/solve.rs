@@ -83,6 +83,7 @@ pub(crate) fn solve(
     let CcdWorkspace {
         statics,
         static_entities,
+        static_layers,
         bodies: entries,
         lanes,
         ..
@@ -107,6 +108,7 @@ pub(crate) fn solve(
         limit,
         margin: config.linear_slop,
         grouping: most >= GROUP_MIN_BODIES && statics.bvh().walks_groups(),
+        static_layers,
     };
     let mut listed = 0;
     let (all, listed_out, listing_out) = (&mut entries[..], &mut listed, &mut listing);

@@ -7,20 +7,30 @@ use bevy_transform::components::Transform;
 
 use super::components::pose_of;
 use super::workspace::CcdWorkspace;
-use super::{CcdConfig, CcdDiagnostics, Collider, StaticCollider};
+use super::{CcdConfig, CcdDiagnostics, Collider, CollisionLayers, StaticCollider};
 use crate::geometry::{self, Aabb, Pose, StaticItem};
 
 /// What [`update_statics`] reads of the world.
 #[derive(SystemParam)]
 pub(crate) struct StaticWatch<'w, 's> {
-    statics: Query<'w, 's, (Entity, &'static Collider, &'static Transform), With<StaticCollider>>,
+    statics: Query<
+        'w,
+        's,
+        (
+            Entity,
+            &'static Collider,
+            &'static Transform,
+            Option<&'static CollisionLayers>,
+        ),
+        With<StaticCollider>,
+    >,
     moved: Query<'w, 's, (), (With<StaticCollider>, Changed<Transform>)>,
     is_static: Query<'w, 's, (), With<StaticCollider>>,
     lost_transform: RemovedComponents<'w, 's, Transform>,
 }
 
 /// [`CcdStepSystems::UpdateStatics`](super::CcdStepSystems::UpdateStatics): rebuild the
-/// static hierarchy when a static was added, removed, moved or reshaped. Targets are indexed
+/// static hierarchy when a static was added, removed, moved, reshaped or given new layers. Targets are indexed
 /// in entity order, so the tree and every candidate list are deterministic.
 ///
 /// Additions, removals and new shapes reach the workspace through the hooks of
@@ -63,38 +73,49 @@ fn rebuild_if_stale(workspace: &mut CcdWorkspace, watch: &mut StaticWatch, limit
         return;
     }
     let within = |bounds: Aabb| bounds.min.abs().max(bounds.max.abs()).max_element() <= limit;
-    let mut list: Vec<(Entity, StaticItem)> = statics
+    let mut list: Vec<(Entity, StaticItem, CollisionLayers)> = statics
         .iter()
-        .filter_map(|(entity, collider, transform)| match pose_of(transform) {
-            Some((position, angle))
-                if within(collider.proxy().aabb(Pose::new(position, angle))) =>
-            {
-                Some((
-                    entity,
-                    StaticItem {
-                        proxy: *collider.proxy(),
-                        position,
-                        angle,
-                    },
-                ))
-            }
-            _ => {
-                log::warn!(
-                    "bevy_ccd: static {entity} has a non-finite Transform or reaches beyond \
+        .filter_map(
+            |(entity, collider, transform, layers)| match pose_of(transform) {
+                Some((position, angle))
+                    if within(collider.proxy().aabb(Pose::new(position, angle))) =>
+                {
+                    Some((
+                        entity,
+                        StaticItem {
+                            proxy: *collider.proxy(),
+                            position,
+                            angle,
+                        },
+                        layers.copied().unwrap_or_default(),
+                    ))
+                }
+                _ => {
+                    log::warn!(
+                        "bevy_ccd: static {entity} has a non-finite Transform or reaches beyond \
                      {limit} m from the origin (the limit at this slop); ignored"
-                );
-                None
-            }
-        })
+                    );
+                    None
+                }
+            },
+        )
         .collect();
-    list.sort_by_key(|(entity, _)| *entity);
+    list.sort_by_key(|(entity, _, _)| *entity);
     workspace.static_entities.clear();
     workspace
         .static_entities
-        .extend(list.iter().map(|(e, _)| *e));
+        .extend(list.iter().map(|(e, _, _)| *e));
+    // Layers are kept only when some target has other than the default, so that a world
+    // without layers skips the filter altogether.
+    workspace.static_layers.clear();
+    if list.iter().any(|(_, _, l)| *l != CollisionLayers::DEFAULT) {
+        workspace
+            .static_layers
+            .extend(list.iter().map(|(_, _, l)| *l));
+    }
     workspace
         .statics
-        .rebuild(list.into_iter().map(|(_, item)| item));
+        .rebuild(list.into_iter().map(|(_, item, _)| item));
     workspace.statics_ready = true;
     workspace.statics_limit = limit;
     workspace.rebuilds += 1;

@@ -6,6 +6,7 @@ use bevy_ecs::change_detection::Tick;
 use bevy_ecs::prelude::*;
 use glam::Vec2;
 
+use super::CollisionLayers;
 use super::outcome::CcdError;
 use crate::geometry::{self, ImpactRecord, StaticSet};
 
@@ -40,6 +41,8 @@ pub(crate) struct BodyEntry {
     pub(crate) flags: u8,
     /// Why the body was not swept, or the time of impact that failed.
     pub(crate) error: Option<CcdError>,
+    /// The body's collision layers.
+    pub(crate) layers: CollisionLayers,
     /// The shape's reach about its centre of mass ([`StepPoses`](super::StepPoses)' copy of the
     /// collider's).
     pub(crate) reach: f32,
@@ -91,6 +94,9 @@ pub(crate) struct CcdWorkspace {
     pub(crate) statics: StaticSet,
     /// The entity of each target (target `i` is the `i`-th static in entity order).
     pub(crate) static_entities: Vec<Entity>,
+    /// The layers of each target, in target order; empty when every target has the default
+    /// layers.
+    pub(crate) static_layers: Vec<CollisionLayers>,
     /// The hierarchy holds every static as it is now.
     pub(crate) statics_ready: bool,
     /// The coordinate limit the hierarchy was built with: a new slop rebuilds it.
