@@ -12,6 +12,8 @@ mod components;
 mod config;
 mod diagnostics;
 mod gather;
+#[allow(dead_code)] // until the record, statics and compound passes use it
+mod hierarchy;
 mod impacts;
 mod layers;
 #[cfg(any(test, feature = "testing"))]
@@ -40,6 +42,7 @@ pub use components::{
 };
 pub use config::CcdConfig;
 pub use diagnostics::CcdDiagnostics;
+pub use hierarchy::MAX_HIERARCHY_DEPTH;
 pub use layers::CollisionLayers;
 pub use outcome::{CcdError, CcdImpact, CcdOutcome, Hits};
 use workspace::CcdWorkspace;

@@ -75,6 +75,13 @@ pub enum CcdError {
     /// The time of impact failed against a target, the body clamped at the last time known to
     /// be clear; or the response at an impact failed, the body clamped at the impact.
     Toi(ToiFailure),
+    /// The entity's place in the `ChildOf` hierarchy has no world pose: an ancestor has no
+    /// `Transform`, or the chain of parents is a cycle or deeper than
+    /// [`MAX_HIERARCHY_DEPTH`](super::hierarchy::MAX_HIERARCHY_DEPTH).
+    InvalidHierarchy,
+    /// A `Transform` on the way to the world is not a planar similarity: a scale that is not
+    /// uniform in x and y, not finite or not positive, or a rotation out of the plane.
+    UnsupportedTransform,
 }
 
 /// What happened to a body in the last step, written by the plugin.
