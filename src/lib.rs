@@ -40,12 +40,12 @@ pub use plugin::testing;
 
 /// The plugin, its components, sets and configuration.
 pub mod prelude {
-    pub use crate::geometry::{Aabb, ShapeError};
+    pub use crate::geometry::{Aabb, CastError, ShapeError};
     pub use crate::plugin::{
-        BodyMass, CcdConfig, CcdDiagnostics, CcdEnabled, CcdError, CcdImpact, CcdOutcome,
-        CcdPlugin, CcdSchedule, CcdStartSchedule, CcdStepSystems, CcdSystems, Collider,
-        CollisionLayers, Friction, Hits, Resolution, Restitution, StaticCollider, StepPoses,
-        Velocity,
+        BodyMass, CastFilter, CastHit, CcdConfig, CcdDiagnostics, CcdEnabled, CcdError, CcdImpact,
+        CcdOutcome, CcdPlugin, CcdSchedule, CcdStartSchedule, CcdStepSystems, CcdSystems, Collider,
+        CollisionLayers, Friction, Hits, Resolution, Restitution, Slide, StaticCollider,
+        StaticQuery, StepPoses, Velocity,
     };
     pub use glam::Vec2;
 }

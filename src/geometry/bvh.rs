@@ -700,6 +700,121 @@ impl Bvh {
         }
     }
 
+    /// Calls `visit(id, enter)` for every item whose box, grown by `half` on each side, the
+    /// segment `origin + t delta` crosses for some `t` in `[0, t_max]`, with `enter` the first
+    /// such `t` (0 when it starts inside). `visit` returns the new `t_max`: a cast that found a
+    /// hit at `t` returns `t`, and no item first reached later is visited after that.
+    ///
+    /// This is a box of half-extents `half` cast along `delta` (a ray when `half` is zero).
+    /// Nearer subtrees are walked first (children by entry time), so a first-hit cast through
+    /// a large level visits the few items along the way to its hit. Items of one leaf come in
+    /// leaf order; the order is deterministic for a given build.
+    pub fn cast(
+        &self,
+        origin: Vec2,
+        delta: Vec2,
+        half: Vec2,
+        t_max: f32,
+        visit: impl FnMut(u32, f32) -> f32,
+    ) {
+        if self.wide.is_empty() || !(origin.is_finite() && delta.is_finite() && half.is_finite()) {
+            return;
+        }
+        // As in `for_each_overlap`: a short stack for every real tree.
+        if (self.depth as usize) < SHORT_STACK_DEPTH {
+            self.cast_walk::<{ 3 * (SHORT_STACK_DEPTH / 2 + 1) + 1 }>(
+                origin, delta, half, t_max, visit,
+            );
+        } else {
+            self.cast_walk::<{ 3 * (STACK_SIZE / 2 + 1) + 1 }>(origin, delta, half, t_max, visit);
+        }
+    }
+
+    /// [`Bvh::cast`] with a traversal stack of `N` slots.
+    #[inline(always)]
+    fn cast_walk<const N: usize>(
+        &self,
+        origin: Vec2,
+        delta: Vec2,
+        half: Vec2,
+        t_max: f32,
+        mut visit: impl FnMut(u32, f32) -> f32,
+    ) {
+        // Slab test (Kay and Kajiya): the segment is inside the box's x slab for
+        // `t in [(lo - o) / d, (hi - o) / d]` (ends swapped when `d < 0`), likewise for y. A
+        // zero component gets a huge finite reciprocal instead of an infinite one, which keeps
+        // `0 * inf` (a NaN) out: the slab is then all of time or none of it, as it should.
+        let inverse = |d: f32| {
+            let d = if d.abs() < 1e-30 {
+                1e-30f32.copysign(d)
+            } else {
+                d
+            };
+            1.0 / d
+        };
+        let (ix, iy) = (Vec4::splat(inverse(delta.x)), Vec4::splat(inverse(delta.y)));
+        let (ox, oy) = (Vec4::splat(origin.x), Vec4::splat(origin.y));
+        let (hx, hy) = (Vec4::splat(half.x), Vec4::splat(half.y));
+        let mut t_max = t_max;
+        // Entry times of four boxes, and which of them the segment crosses before `t_max`.
+        let slabs = |min_x: Vec4, min_y: Vec4, neg_max_x: Vec4, neg_max_y: Vec4, t_max: f32| {
+            let (lo_x, hi_x) = (min_x - hx, hx - neg_max_x);
+            let (lo_y, hi_y) = (min_y - hy, hy - neg_max_y);
+            let (ax, bx) = ((lo_x - ox) * ix, (hi_x - ox) * ix);
+            let (ay, by) = ((lo_y - oy) * iy, (hi_y - oy) * iy);
+            let enter = ax.min(bx).max(ay.min(by)).max(Vec4::ZERO);
+            let exit = ax.max(bx).min(ay.max(by)).min(Vec4::splat(t_max));
+            // An empty box (`min = +inf`) is inverted: never crossed.
+            let valid = lo_x.cmple(hi_x) & lo_y.cmple(hi_y);
+            (enter, (enter.cmple(exit) & valid).bitmask())
+        };
+        let mut stack = [(0u32, 0.0f32); N];
+        let mut sp = 1;
+        while sp > 0 {
+            sp -= 1;
+            let (node, entered) = stack[sp];
+            if entered > t_max {
+                continue;
+            }
+            let w = &self.wide[node as usize];
+            let (enter, mut mask) = slabs(w.min_x, w.min_y, w.neg_max_x, w.neg_max_y, t_max);
+            // Inner children are pushed farthest first, so the nearest is walked next.
+            let mut inner = [(0u32, 0.0f32); 4];
+            let mut n = 0;
+            while mask != 0 {
+                let lane = mask.trailing_zeros() as usize;
+                mask &= mask - 1;
+                let (first, count) = (w.first[lane] as usize, w.count[lane] as usize);
+                if count == 0 {
+                    let mut k = n;
+                    while k > 0 && inner[k - 1].1 < enter[lane] {
+                        inner[k] = inner[k - 1];
+                        k -= 1;
+                    }
+                    inner[k] = (first as u32, enter[lane]);
+                    n += 1;
+                    continue;
+                }
+                for b in &self.blocks[first..first + count] {
+                    let (enter, mut hits) =
+                        slabs(b.min_x, b.min_y, b.neg_max_x, b.neg_max_y, t_max);
+                    while hits != 0 {
+                        let lane = hits.trailing_zeros() as usize;
+                        hits &= hits - 1;
+                        if enter[lane] <= t_max {
+                            t_max = visit(b.ids[lane], enter[lane]);
+                        }
+                    }
+                }
+            }
+            // Element by element: a slice copy of a varying length is a call to `memmove`.
+            for &pending in &inner[..n] {
+                stack[sp] = pending;
+                sp += 1;
+            }
+        }
+    }
+
     /// [`Bvh::query`] for several boxes at once: appends to `out` the hits of `bounds[0]` in
     /// ascending id order, then those of `bounds[1]`, and so on, and sets `counts[i]` to the
     /// number of hits of `bounds[i]`. The same result as one [`Bvh::query`] per box, in order.

@@ -9,12 +9,14 @@
 
 pub(crate) mod body_solver;
 mod bvh;
+pub(crate) mod cast;
 pub mod constants;
 mod cull;
 mod gjk;
 mod math;
 mod pair;
 mod proxy;
+mod ray;
 mod response;
 mod shape;
 pub(crate) mod static_set;
@@ -26,6 +28,7 @@ mod toi;
 pub use body_solver::Resolution;
 pub(crate) use body_solver::{BodyState, ImpactRecord, SolveSettings, solve_body};
 pub use bvh::{Bvh, QUERY_GROUP};
+pub use cast::CastError;
 pub use constants::{
     LINEAR_SLOP, MAX_POLYGON_VERTICES, MAX_WORLD_COORDINATE, SLOP_PER_COORDINATE_SPACING,
     max_world_coordinate,
@@ -34,6 +37,7 @@ pub use gjk::{DistanceInput, DistanceOutput, SimplexCache, shape_distance};
 pub(crate) use math::atan2;
 pub use math::{Pose, Rot};
 pub use proxy::ShapeProxy;
+pub use ray::ray_entry;
 pub use shape::{Aabb, Capsule, Circle, MassProperties, Polygon, Segment, Shape, ShapeError};
 pub(crate) use static_set::{StaticItem, StaticSet};
 pub use sweep::Sweep;

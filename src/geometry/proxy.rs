@@ -24,6 +24,15 @@ pub struct ShapeProxy {
 }
 
 impl ShapeProxy {
+    /// A single point at the origin, radius zero.
+    #[cfg(test)]
+    pub(crate) const POINT: Self = Self {
+        points: [Vec2::ZERO; MAX_POLYGON_VERTICES],
+        count: 1,
+        radius: 0.0,
+        extent: 0.0,
+    };
+
     /// A proxy from 1 to [`MAX_POLYGON_VERTICES`] points and a radius, checked to be finite.
     ///
     /// The points need not be in any order nor be hull vertices: the support function only

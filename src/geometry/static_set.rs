@@ -91,6 +91,11 @@ impl StaticSet {
         }
     }
 
+    /// Whether target `index` was disabled ([`Self::disable`]) since the last rebuild.
+    pub(crate) fn is_disabled(&self, index: usize) -> bool {
+        self.records.get(index).is_some_and(|r| r.disabled)
+    }
+
     /// The targets.
     pub fn items(&self) -> &[StaticItem] {
         &self.items

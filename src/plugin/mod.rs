@@ -20,6 +20,7 @@ mod layers;
 mod level_check;
 mod outcome;
 mod parallel;
+mod query;
 mod record;
 mod solve;
 mod statics;
@@ -45,6 +46,7 @@ pub use diagnostics::CcdDiagnostics;
 pub use hierarchy::MAX_HIERARCHY_DEPTH;
 pub use layers::CollisionLayers;
 pub use outcome::{CcdError, CcdImpact, CcdOutcome, Hits};
+pub use query::{CastFilter, CastHit, Slide, StaticQuery};
 use workspace::CcdWorkspace;
 
 /// Continuous collision detection for bodies moved by the user's own code.
@@ -181,7 +183,9 @@ impl Plugin for CcdPlugin {
             .register_type::<Restitution>()
             .register_type::<Friction>()
             .register_type::<BodyMass>()
-            .register_type::<CollisionLayers>();
+            .register_type::<CollisionLayers>()
+            .register_type::<CastFilter>()
+            .register_type::<CastHit>();
         for label in [CcdStartSchedule.intern(), CcdSchedule.intern()] {
             app.init_schedule(label);
             app.edit_schedule(label, |schedule| {

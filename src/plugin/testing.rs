@@ -289,6 +289,49 @@ impl Liveness {
     }
 }
 
+/// The position and angle the plugin reads off a `Transform` (x, y and the rotation about z),
+/// bit for bit, for tests that recompute what the plugin did.
+pub fn planar_pose(transform: &Transform) -> (glam::Vec2, f32) {
+    super::components::planar_pose(transform)
+}
+
+/// The corridor of the character-controller tests and example: a floor from x = 0 with two
+/// steps 10 cm high, a 45° slope up to a plateau 2 m higher, a ceiling 3 m above each floor
+/// level, and an end wall. Returns where the end wall's face is (m along x); a character
+/// starts at about `(1, 1)`.
+pub fn spawn_corridor(world: &mut World) -> f32 {
+    use core::f32::consts::FRAC_PI_4;
+    let mut block = |center: glam::Vec2, half: glam::Vec2, angle: f32| {
+        world.spawn((
+            Collider::rectangle(half.x, half.y).expect("positive sizes"),
+            StaticCollider,
+            Transform::from_xyz(center.x, center.y, 0.0)
+                .with_rotation(glam::Quat::from_rotation_z(angle)),
+        ));
+    };
+    use glam::Vec2;
+    // Floor, tops at y = 0 (x in [-1, 12]), steps up to 0.1 (from x = 6) and 0.2 (from x = 9).
+    block(Vec2::new(5.5, -0.5), Vec2::new(6.5, 0.5), 0.0);
+    block(Vec2::new(9.0, -0.45), Vec2::new(3.0, 0.55), 0.0);
+    block(Vec2::new(10.5, -0.4), Vec2::new(1.5, 0.6), 0.0);
+    // A 45° ramp from (12, 0.2) up to (14, 2.2), then the plateau to x = 24.
+    let rise = Vec2::new(2.0, 2.0);
+    block(
+        Vec2::new(12.0, 0.2) + 0.5 * rise + Vec2::new(0.25, -0.25),
+        Vec2::new(0.5 * rise.length(), 0.25 * 2f32.sqrt()),
+        FRAC_PI_4,
+    );
+    block(Vec2::new(13.0, -0.4), Vec2::new(1.0, 0.6), 0.0);
+    block(Vec2::new(19.0, 1.7), Vec2::new(5.0, 0.5), 0.0);
+    // Ceilings, undersides 3 m above the floors.
+    block(Vec2::new(6.0, 3.5), Vec2::new(7.0, 0.5), 0.0);
+    block(Vec2::new(19.0, 5.7), Vec2::new(6.0, 0.5), 0.0);
+    // Walls at both ends.
+    block(Vec2::new(-1.5, 1.5), Vec2::new(0.5, 3.0), 0.0);
+    block(Vec2::new(24.5, 3.7), Vec2::new(0.5, 3.0), 0.0);
+    24.0
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -321,3 +364,4 @@ mod tests {
         }
     }
 }
+

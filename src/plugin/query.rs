@@ -1,0 +1,304 @@
+//! [`StaticQuery`]: shape and ray casts through the static world, for game code.
+
+use bevy_ecs::prelude::*;
+use bevy_ecs::system::SystemParam;
+use bevy_reflect::prelude::*;
+use glam::Vec2;
+use smallvec::SmallVec;
+
+use super::workspace::CcdWorkspace;
+use super::{CcdConfig, Collider, CollisionLayers};
+use crate::geometry::cast::{
+    MAX_SLIDE_CASTS, TargetHit, cast_all, cast_first, ray_all, ray_first, slide,
+};
+use crate::geometry::{CastError, ShapeProxy, Sweep};
+
+/// Which targets a cast may hit.
+///
+/// ```
+/// use bevy_ccd::prelude::*;
+/// use bevy_ecs::entity::Entity;
+///
+/// // Everything but the caster itself and the targets of the second layer.
+/// let me = Entity::PLACEHOLDER;
+/// let filter = CastFilter {
+///     layers: CollisionLayers::new(1, !0b10),
+///     excluded: Some(me),
+/// };
+/// assert!(filter.layers.interacts(CollisionLayers::DEFAULT));
+/// ```
+#[derive(Reflect, Clone, Copy, Debug, Default, PartialEq)]
+#[reflect(Default, Debug, Clone, PartialEq)]
+pub struct CastFilter {
+    /// The cast's layers: a target is hit only when they interact
+    /// ([`CollisionLayers::interacts`]). The default is [`CollisionLayers::DEFAULT`]: a member
+    /// of the first layer that hits all layers.
+    pub layers: CollisionLayers,
+    /// A target never hit (the caster's own collider, say). The default is `None`.
+    pub excluded: Option<Entity>,
+}
+
+/// A target a cast reaches.
+#[derive(Reflect, Clone, Copy, Debug, PartialEq)]
+#[reflect(Debug, Clone, PartialEq)]
+pub struct CastHit {
+    /// The target ([`StaticCollider`](super::StaticCollider) entity).
+    pub entity: Entity,
+    /// Fraction of the cast at which the shape comes within the slop of the target (a ray:
+    /// reaches its surface, and its distance is this times `max_distance`), in `[0, 1]`; 0
+    /// when the cast starts overlapping it.
+    pub fraction: f32,
+    /// Contact point (world, m): midway between the surfaces (a ray: on the surface).
+    pub point: Vec2,
+    /// Unit normal from the target toward the cast shape (a ray: the surface's outward
+    /// normal); zero when the cast starts with the shapes' cores overlapping (a ray: inside).
+    pub normal: Vec2,
+}
+
+/// Casts through the static world: the first [`StaticCollider`](super::StaticCollider) a
+/// collider moving from one pose to another (or a ray) reaches, or all of them in order.
+///
+/// The casts use the plugin's own hierarchy of the statics and its time of impact, so they
+/// see the world exactly as CCD does: the statics as the last
+/// [`CcdStepSystems::UpdateStatics`](super::CcdStepSystems::UpdateStatics) left them (a static
+/// spawned or moved since is seen from the next step on; before the first step there is
+/// nothing to hit), honouring [`CollisionLayers`]. A shape's hit is where the surfaces come
+/// within the slop ([`CcdConfig::linear_slop`]), exact to the slop; a ray's is exactly where it
+/// meets the surface. A shape that turns on its way is
+/// swept as the plugin sweeps a body: its centre of mass on a straight line, its angle
+/// linearly.
+///
+/// Bad input (a non-finite pose, a cast that neither moves nor turns, a ray with no length or
+/// direction, coordinates beyond the slop's limit) gives a [`CastError`], never a panic.
+///
+/// ```
+/// use bevy_ccd::prelude::*;
+/// use bevy_ecs::prelude::*;
+/// use glam::Vec2;
+///
+/// // A weapon's trace and a character's move, in a system of the game.
+/// fn aim(casts: StaticQuery) {
+///     let trace = casts.cast_ray(Vec2::ZERO, Vec2::X, 100.0, &CastFilter::default());
+///     if let Ok(Some(hit)) = trace {
+///         println!("hit {:?} {} m away", hit.entity, hit.fraction * 100.0);
+///     }
+///     let ball = Collider::circle(0.5).unwrap();
+///     let moved = casts.cast_shape(&ball, (Vec2::ZERO, 0.0), (Vec2::new(3.0, 0.0), 0.0), &CastFilter::default());
+///     assert!(moved.is_ok());
+/// }
+/// # let mut schedule = Schedule::default();
+/// # schedule.add_systems(aim);
+/// ```
+#[derive(SystemParam)]
+pub struct StaticQuery<'w> {
+    workspace: Res<'w, CcdWorkspace>,
+    config: Res<'w, CcdConfig>,
+}
+
+impl StaticQuery<'_> {
+    /// The first target `collider` reaches moving from pose `from` to pose `to` (each an
+    /// origin position and an angle, as a `Transform` in the plane), or `None`. Ties go to the
+    /// target first in entity order.
+    pub fn cast_shape(
+        &self,
+        collider: &Collider,
+        from: (Vec2, f32),
+        to: (Vec2, f32),
+        filter: &CastFilter,
+    ) -> Result<Option<CastHit>, CastError> {
+        let sweep = shape_sweep(collider, from, to);
+        let hit = cast_first(
+            &self.workspace.statics,
+            collider.proxy(),
+            sweep,
+            self.config.linear_slop,
+            |index| self.accepts(index, filter),
+        )?;
+        Ok(hit.map(|hit| self.hit(hit)))
+    }
+
+    /// Every target `collider` reaches moving from `from` to `to`, appended to `hits` in order
+    /// of fraction (ties in entity order). On an error `hits` is left as it was.
+    pub fn cast_shape_all(
+        &self,
+        collider: &Collider,
+        from: (Vec2, f32),
+        to: (Vec2, f32),
+        filter: &CastFilter,
+        hits: &mut Vec<CastHit>,
+    ) -> Result<(), CastError> {
+        let sweep = shape_sweep(collider, from, to);
+        self.all(collider.proxy(), sweep, filter, hits)
+    }
+
+    /// The first target the ray from `origin` along `direction` (any length but zero) reaches
+    /// within `max_distance` (m), or `None`.
+    pub fn cast_ray(
+        &self,
+        origin: Vec2,
+        direction: Vec2,
+        max_distance: f32,
+        filter: &CastFilter,
+    ) -> Result<Option<CastHit>, CastError> {
+        let delta = ray_delta(direction, max_distance)?;
+        let hit = ray_first(
+            &self.workspace.statics,
+            origin,
+            delta,
+            self.config.linear_slop,
+            |index| self.accepts(index, filter),
+        )?;
+        Ok(hit.map(|hit| self.hit(hit)))
+    }
+
+    /// Every target the ray reaches within `max_distance`, appended to `hits` in order of
+    /// distance (ties in entity order). On an error `hits` is left as it was.
+    pub fn cast_ray_all(
+        &self,
+        origin: Vec2,
+        direction: Vec2,
+        max_distance: f32,
+        filter: &CastFilter,
+        hits: &mut Vec<CastHit>,
+    ) -> Result<(), CastError> {
+        let delta = ray_delta(direction, max_distance)?;
+        let mut found = Vec::new();
+        ray_all(
+            &self.workspace.statics,
+            origin,
+            delta,
+            self.config.linear_slop,
+            |index| self.accepts(index, filter),
+            &mut found,
+        )?;
+        hits.extend(found.into_iter().map(|hit| self.hit(hit)));
+        Ok(())
+    }
+
+    /// Moves `collider` (origin at `position`, turned by `angle`, which it keeps) by
+    /// `displacement`, sliding along the statics it meets: a character controller's move.
+    ///
+    /// Casts the motion; at a hit, stops there, backs out to the slop along the hit's normal
+    /// and goes on with what is left of the motion projected onto every surface met so far
+    /// (as Box2D's `b2World_CastMover` and `b2SolvePlanes`), at most four casts. It never
+    /// ends inside a static it did not start in: every stop is a time of impact's, half the
+    /// slop from the surface or more. A collider that starts overlapping a static is not
+    /// moved (its first hit has fraction 0). A zero displacement moves nothing and is no error.
+    ///
+    /// ```
+    /// use bevy_ccd::prelude::*;
+    /// use bevy_ecs::prelude::*;
+    ///
+    /// #[derive(Component)]
+    /// struct Player;
+    ///
+    /// fn walk(casts: StaticQuery, mut player: Query<&mut Transform, With<Player>>) {
+    ///     let capsule = Collider::capsule(0.4, 0.3).unwrap();
+    ///     for mut transform in &mut player {
+    ///         let at = transform.translation.truncate();
+    ///         let step = Vec2::new(0.1, -0.05);
+    ///         if let Ok(slide) = casts.move_and_slide(&capsule, at, 0.0, step, &CastFilter::default()) {
+    ///             transform.translation = slide.position.extend(transform.translation.z);
+    ///         }
+    ///     }
+    /// }
+    /// # use bevy_transform::prelude::Transform;
+    /// # let mut schedule = Schedule::default();
+    /// # schedule.add_systems(walk);
+    /// ```
+    pub fn move_and_slide(
+        &self,
+        collider: &Collider,
+        position: Vec2,
+        angle: f32,
+        displacement: Vec2,
+        filter: &CastFilter,
+    ) -> Result<Slide, CastError> {
+        if !angle.is_finite() {
+            return Err(CastError::NonFinite);
+        }
+        let slid = slide(
+            &self.workspace.statics,
+            collider.proxy(),
+            position,
+            angle,
+            displacement,
+            self.config.linear_slop,
+            |index| self.accepts(index, filter),
+        )?;
+        Ok(Slide {
+            position: slid.position,
+            hits: slid.hits.into_iter().map(|hit| self.hit(hit)).collect(),
+        })
+    }
+
+    fn all(
+        &self,
+        proxy: &ShapeProxy,
+        sweep: Sweep,
+        filter: &CastFilter,
+        hits: &mut Vec<CastHit>,
+    ) -> Result<(), CastError> {
+        let mut found = Vec::new();
+        cast_all(
+            &self.workspace.statics,
+            proxy,
+            sweep,
+            self.config.linear_slop,
+            |index| self.accepts(index, filter),
+            &mut found,
+        )?;
+        hits.extend(found.into_iter().map(|hit| self.hit(hit)));
+        Ok(())
+    }
+
+    /// Whether the cast may hit target `index`.
+    fn accepts(&self, index: u32, filter: &CastFilter) -> bool {
+        let ws = &self.workspace;
+        let layers = ws
+            .static_layers
+            .get(index as usize)
+            .copied()
+            .unwrap_or_default();
+        filter.layers.interacts(layers)
+            && filter
+                .excluded
+                .is_none_or(|e| ws.static_entities.get(index as usize) != Some(&e))
+    }
+
+    fn hit(&self, hit: TargetHit) -> CastHit {
+        CastHit {
+            entity: self.workspace.static_entities[hit.target as usize],
+            fraction: hit.fraction,
+            point: hit.point,
+            normal: hit.normal,
+        }
+    }
+}
+
+/// Where [`StaticQuery::move_and_slide`] left a collider.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Slide {
+    /// The collider's final origin (m).
+    pub position: Vec2,
+    /// The statics it met on the way, in order.
+    pub hits: SmallVec<[CastHit; MAX_SLIDE_CASTS]>,
+}
+
+/// A collider's motion from pose to pose: the centre of mass on a straight line.
+fn shape_sweep(collider: &Collider, from: (Vec2, f32), to: (Vec2, f32)) -> Sweep {
+    let center = collider.mass_properties(1.0).center;
+    Sweep::from_origins(center, from.0, from.1, to.0, to.1)
+}
+
+/// A ray's whole length as a vector: `max_distance` along `direction`.
+fn ray_delta(direction: Vec2, max_distance: f32) -> Result<Vec2, CastError> {
+    if !direction.is_finite() || !max_distance.is_finite() {
+        return Err(CastError::NonFinite);
+    }
+    let unit = direction.try_normalize().ok_or(CastError::ZeroLength)?;
+    if max_distance <= 0.0 {
+        return Err(CastError::ZeroLength);
+    }
+    Ok(unit * max_distance)
+}
