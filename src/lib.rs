@@ -38,6 +38,13 @@ pub mod plugin;
 #[cfg(any(test, feature = "testing"))]
 pub use plugin::testing;
 
+/// The debug view: [`CcdDebugPlugin`](debug::CcdDebugPlugin) draws what CCD sees and did with
+/// gizmos (the `debug` feature).
+#[cfg(feature = "debug")]
+pub mod debug {
+    pub use crate::plugin::debug::{CcdDebugPlugin, CcdGizmos};
+}
+
 /// The plugin, its components, sets and configuration.
 pub mod prelude {
     pub use crate::geometry::{Aabb, CastError, ShapeError};

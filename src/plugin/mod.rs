@@ -10,6 +10,8 @@
 mod arena;
 mod components;
 mod config;
+#[cfg(feature = "debug")]
+pub(crate) mod debug;
 mod diagnostics;
 mod gather;
 #[allow(dead_code)] // until the record, statics and compound passes use it
