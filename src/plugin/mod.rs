@@ -12,7 +12,6 @@ mod components;
 mod config;
 mod diagnostics;
 mod gather;
-#[allow(dead_code)] // until the record, statics and compound passes use it
 mod hierarchy;
 mod impacts;
 mod layers;
