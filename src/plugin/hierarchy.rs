@@ -98,8 +98,14 @@ pub(crate) type Ancestry<'w, 's> =
     Query<'w, 's, (Option<&'static Transform>, Option<&'static ChildOf>)>;
 
 /// The same, with change ticks: whether a chain moved since the last step.
-pub(crate) type TickedAncestry<'w, 's> =
-    Query<'w, 's, (Option<Ref<'static, Transform>>, Option<Ref<'static, ChildOf>>)>;
+pub(crate) type TickedAncestry<'w, 's> = Query<
+    'w,
+    's,
+    (
+        Option<Ref<'static, Transform>>,
+        Option<Ref<'static, ChildOf>>,
+    ),
+>;
 
 /// The pose of `entity` in the frame of its ancestor `frame` (the world when `None` or when
 /// `frame` is not an ancestor): its own `Transform` composed with those of its ancestors below

@@ -198,7 +198,13 @@ pub(crate) fn record_end(
     time: Option<Res<Time<Fixed>>>,
     mut workspace: ResMut<CcdWorkspace>,
     mut bodies: RootBodies<(&Transform, &mut StepPoses, Option<&Velocity>)>,
-    mut children: ChildBodies<(Entity, &Transform, &mut StepPoses, Option<&Velocity>, &ChildOf)>,
+    mut children: ChildBodies<(
+        Entity,
+        &Transform,
+        &mut StepPoses,
+        Option<&Velocity>,
+        &ChildOf,
+    )>,
     ancestry: Ancestry,
 ) {
     let dt = step_length(&config, time.as_deref());
@@ -212,7 +218,9 @@ pub(crate) fn record_end(
             continue;
         }
         let pose = body_pose(transform, parent.parent(), |e| ancestry.get(e).ok());
-        let world = pose.ok().map(|(world, _)| (world.position, wrap_angle(world.angle)));
+        let world = pose
+            .ok()
+            .map(|(world, _)| (world.position, wrap_angle(world.angle)));
         record_end_pose(|| world, sweep, velocity, dt);
         frames.push((entity, pose.map(|(_, frame)| frame)));
     }

@@ -34,7 +34,11 @@ type PartFilter = (With<ChildOf>, Without<StaticCollider>, Without<CcdEnabled>);
 /// Moved or reparented since the last run.
 type Moved = Or<(Changed<Transform>, Changed<ChildOf>)>;
 /// What [`owner`] reads of each entity on the way up.
-type Kinds = (Has<StaticCollider>, Has<CcdEnabled>, Option<&'static ChildOf>);
+type Kinds = (
+    Has<StaticCollider>,
+    Has<CcdEnabled>,
+    Option<&'static ChildOf>,
+);
 
 /// What [`update_statics`] reads of the world.
 #[derive(SystemParam)]
@@ -239,7 +243,10 @@ fn rebuild_if_stale(workspace: &mut CcdWorkspace, watch: &mut StaticWatch, limit
     // Layers are kept only when some target has other than the default, so that a world
     // without layers skips the filter altogether.
     workspace.static_layers.clear();
-    if list.iter().any(|(_, _, _, l)| *l != CollisionLayers::DEFAULT) {
+    if list
+        .iter()
+        .any(|(_, _, _, l)| *l != CollisionLayers::DEFAULT)
+    {
         workspace
             .static_layers
             .extend(list.iter().map(|(_, _, _, l)| *l));
