@@ -1,7 +1,8 @@
 //! The arena: a closed box of 1 cm static walls with obstacles inside, 1,000 bodies of every
 //! shape thrown at 1 to 2,000 m/s with up to three turns per step and gravity, 1,000 fixed
 //! steps. With CCD on (both resolution modes) no body ever leaves the box and none ends a step
-//! deeper than the slop in a wall; with CCD off bodies are lost.
+//! deeper than the slop in a wall; with CCD off bodies are lost. The same holds with the walls
+//! and obstacles spawned as children of a rotated and translated level root.
 
 use bevy_ccd::prelude::*;
 use bevy_ccd::testing::{
@@ -20,7 +21,21 @@ struct RunStats {
     frozen: usize,
 }
 
+/// A level root turned by 0.7 rad and moved by (13, -4) m: its statics' local poses are far
+/// from their world poses, so a plugin reading them as world poses would lose every body.
+const LEVEL_ROOT: Option<(Vec2, f32)> = Some((Vec2::new(13.0, -4.0), 0.7));
+
 fn run(resolution: Resolution, ccd: bool, steps: usize, check: bool) -> RunStats {
+    run_with(resolution, ccd, steps, check, None)
+}
+
+fn run_with(
+    resolution: Resolution,
+    ccd: bool,
+    steps: usize,
+    check: bool,
+    level_root: Option<(Vec2, f32)>,
+) -> RunStats {
     let config = CcdConfig {
         resolution,
         ..Default::default()
@@ -28,6 +43,7 @@ fn run(resolution: Resolution, ccd: bool, steps: usize, check: bool) -> RunStats
     let arena = ArenaConfig {
         ccd,
         timestep: DT as f32,
+        level_root,
         ..Default::default()
     };
     let (mut app, arena) = arena_app(DT, config, Vec2::new(0.0, -9.81), &arena);
@@ -113,4 +129,18 @@ fn arena_without_ccd_loses_bodies() {
     );
     // Most bodies move more than a wall thickness per step: without CCD they go through.
     assert!(s.escaped_at_end > 100, "only {} escaped", s.escaped_at_end);
+}
+
+#[test]
+fn arena_under_a_level_root_contains_every_body() {
+    for resolution in [Resolution::SubStep { max_substeps: 4 }, Resolution::Clamp] {
+        let s = run_with(resolution, true, STEPS, true, LEVEL_ROOT);
+        eprintln!(
+            "{resolution:?} under a level root: impacts {}, worst penetration {:.2e}",
+            s.impacts, s.worst_penetration
+        );
+        assert_eq!(s.escaped_at_end, 0);
+        assert_eq!(s.frozen, 0, "bodies stayed in place while moving");
+        assert!(s.impacts > 1000);
+    }
 }

@@ -69,6 +69,17 @@ impl ShapeProxy {
         }
     }
 
+    /// This proxy scaled by `scale` about its local origin: every core point and the radius
+    /// multiplied by it (a uniform scale of the shape's frame, as a parent's `Transform` in a
+    /// hierarchy gives). The caller checks the result is finite ([`Self::is_finite`]).
+    pub(crate) fn scaled(&self, scale: f32) -> Self {
+        let mut points = [Vec2::ZERO; MAX_POLYGON_VERTICES];
+        for (out, p) in points.iter_mut().zip(self.points()) {
+            *out = *p * scale;
+        }
+        Self::from_parts(&points[..self.count()], self.radius * scale)
+    }
+
     /// The largest distance of a core point from the local origin (m), radius not included.
     #[inline]
     pub fn extent(&self) -> f32 {
@@ -192,5 +203,22 @@ impl ShapeProxy {
     /// True when every point and the radius are finite.
     pub fn is_finite(&self) -> bool {
         self.radius.is_finite() && self.points().iter().all(|p| p.is_finite())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn scaled_multiplies_points_and_radius() {
+        let proxy = ShapeProxy::new(&[Vec2::new(1.0, -0.5), Vec2::new(-2.0, 0.25)], 0.125).unwrap();
+        // A power of two: every product is exact, so the comparison is too.
+        let big = proxy.scaled(4.0);
+        assert_eq!(big.points(), &[Vec2::new(4.0, -2.0), Vec2::new(-8.0, 1.0)]);
+        assert_eq!(big.radius, 0.5);
+        assert_eq!(big.extent(), 4.0 * proxy.extent());
+        assert_eq!(big, ShapeProxy::new(big.points(), 0.5).unwrap());
+        assert_eq!(proxy.scaled(1.0), proxy);
     }
 }

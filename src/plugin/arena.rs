@@ -6,6 +6,7 @@ use bevy_ecs::prelude::*;
 use bevy_transform::components::Transform;
 use glam::{Quat, Vec2};
 
+use super::hierarchy::{Planar, pose_with};
 use super::{
     BodyMass, CcdEnabled, Collider, CollisionLayers, Friction, Restitution, StaticCollider,
     Velocity,
@@ -104,6 +105,11 @@ pub struct ArenaConfig {
     /// Where the centre of the box is (m): walls, obstacles and bodies are all shifted by it,
     /// to test precision far from the world origin. The default is the origin.
     pub offset: Vec2,
+    /// When set, a level root entity with this translation (m) and rotation about z (rad):
+    /// the walls and obstacles are spawned as its children, each with the local `Transform`
+    /// that keeps its world pose (within rounding), to test poses composed through the
+    /// hierarchy. The default is `None`: root statics.
+    pub level_root: Option<(Vec2, f32)>,
 }
 
 impl Default for ArenaConfig {
@@ -120,6 +126,7 @@ impl Default for ArenaConfig {
             ccd: true,
             seed: 1,
             offset: Vec2::ZERO,
+            level_root: None,
         }
     }
 }
@@ -166,12 +173,32 @@ pub fn spawn_arena(world: &mut World, config: &ArenaConfig) -> Arena {
     let mut statics = Vec::new();
     let mut static_shapes: Vec<(ShapeProxy, Pose)> = Vec::new();
     let offset = config.offset;
-    let mut add_static = |world: &mut World, collider: Collider, position: Vec2, angle: f32| {
-        let position = position + offset;
+    let root = config.level_root.map(|(position, angle)| {
         let transform = Transform::from_xyz(position.x, position.y, 0.0)
             .with_rotation(Quat::from_rotation_z(angle));
+        let frame = Planar::of(&transform).unwrap_or(Planar::IDENTITY);
+        (world.spawn(transform).id(), frame)
+    });
+    let mut add_static = |world: &mut World, collider: Collider, position: Vec2, angle: f32| {
+        let position = position + offset;
+        let planar = Planar {
+            position,
+            angle,
+            scale: 1.0,
+        };
+        // Under the root, the local pose that composes back to the same world pose.
+        let (local, parent) = match root {
+            Some((root, frame)) => (frame.local_of(planar), Some(root)),
+            None => (planar, None),
+        };
+        let transform = Transform::from_xyz(local.position.x, local.position.y, 0.0)
+            .with_rotation(Quat::from_rotation_z(local.angle));
         static_shapes.push((*collider.proxy(), Pose::new(position, angle)));
-        statics.push(world.spawn((collider, StaticCollider, transform)).id());
+        let mut spawned = world.spawn((collider, StaticCollider, transform));
+        if let Some(parent) = parent {
+            spawned.insert(ChildOf(parent));
+        }
+        statics.push(spawned.id());
     };
     // Four walls, their inner faces on the square of half side h.
     let horizontal = Collider::rectangle(h + 2.0 * t, t).expect("wall size is valid");
@@ -273,17 +300,26 @@ pub fn deepest_penetration(world: &mut World) -> (f32, Option<(Entity, Entity)>)
         Option<&'a CollisionLayers>,
     );
     let mut statics = world.query_filtered::<Item, With<StaticCollider>>();
+    // At their world poses, composed through the hierarchy (a root static's is its own
+    // `Transform`'s); those without one are not in the plugin's hierarchy either.
+    let world_ref: &World = world;
+    let link = |e: Entity| {
+        let at = world_ref.get_entity(e).ok()?;
+        Some((at.get::<Transform>(), at.get::<ChildOf>()))
+    };
     let targets: Vec<(Entity, ShapeProxy, Pose, Aabb, CollisionLayers)> = statics
-        .iter(world)
-        .map(|(e, c, t, l)| {
-            let pose = pose_of(t);
-            (
+        .iter(world_ref)
+        .filter_map(|(e, c, _, l)| {
+            let planar = pose_with(e, None, link).ok()?;
+            let pose = Pose::new(planar.position, planar.angle);
+            let proxy = c.proxy().scaled(planar.scale);
+            Some((
                 e,
-                *c.proxy(),
+                proxy,
                 pose,
-                c.proxy().aabb(pose),
+                proxy.aabb(pose),
                 l.copied().unwrap_or_default(),
-            )
+            ))
         })
         .collect();
     let mut bodies = world.query_filtered::<Item, (With<CcdEnabled>, Without<StaticCollider>)>();

@@ -189,11 +189,37 @@ fn static_removed(mut world: DeferredWorld, context: HookContext) {
     }
 }
 
-/// Hook of [`Collider`] (removal): only a static's matters, to the hierarchy.
-fn static_shape_changed(world: DeferredWorld, context: HookContext) {
+/// Hook of [`Collider`] (removal): only a static's or a static part's matters, to the
+/// hierarchy.
+fn static_shape_changed(mut world: DeferredWorld, context: HookContext) {
     if world.entity(context.entity).contains::<StaticCollider>() {
         static_removed(world, context);
+    } else if let Some(mut workspace) = world.get_resource_mut::<CcdWorkspace>() {
+        workspace.part_removed(context.entity);
     }
+}
+
+/// Whether `entity` is a part of a target: no [`StaticCollider`] or [`CcdEnabled`] of its
+/// own, and a [`StaticCollider`] above it in the `ChildOf` hierarchy before any
+/// [`CcdEnabled`] (the hooks' view of `statics::owner`).
+pub(crate) fn is_static_part(world: &DeferredWorld, entity: Entity) -> bool {
+    let mut at = entity;
+    for depth in 0..super::MAX_HIERARCHY_DEPTH {
+        let Ok(here) = world.get_entity(at) else {
+            return false;
+        };
+        if depth > 0 && here.contains::<StaticCollider>() {
+            return true;
+        }
+        if here.contains::<CcdEnabled>() || (depth == 0 && here.contains::<StaticCollider>()) {
+            return false;
+        }
+        match here.get::<ChildOf>() {
+            Some(parent) => at = parent.parent(),
+            None => return false,
+        }
+    }
+    false
 }
 
 /// Hook of [`Collider`] (insertion or replacement): a static's hierarchy is stale, a body's
@@ -205,7 +231,7 @@ fn collider_inserted(mut world: DeferredWorld, context: HookContext) {
     if let (Some(shape), Some(mut sweep)) = (shape, world.get_mut::<StepPoses>(context.entity)) {
         shape.write(sweep.bypass_change_detection());
     }
-    if is_static {
+    if is_static || is_static_part(&world, context.entity) {
         static_added(world, context);
     }
 }
@@ -217,7 +243,18 @@ fn collider_inserted(mut world: DeferredWorld, context: HookContext) {
 fn poses_inserted(mut world: DeferredWorld, context: HookContext) {
     let entity = world.entity(context.entity);
     let shape = entity.get::<Collider>().map(ShapeSummary::of);
-    let pose = entity.get::<Transform>().map(planar_pose);
+    // A child body's start is its world pose; a chain with none leaves it at NaN (the
+    // record passes then name the reason).
+    let pose = match (entity.get::<Transform>(), entity.get::<ChildOf>()) {
+        (Some(own), Some(parent)) => Some(
+            super::hierarchy::body_pose(own, parent.parent(), |e| {
+                let at = world.get_entity(e).ok()?;
+                Some((at.get::<Transform>(), at.get::<ChildOf>()))
+            })
+            .map_or((Vec2::NAN, 0.0), |(world, _)| (world.position, world.angle)),
+        ),
+        (own, _) => own.map(planar_pose),
+    };
     let enabled = entity.get::<CcdEnabled>().is_some_and(|e| e.0);
     let step = world
         .get_resource::<CcdWorkspace>()

@@ -6,6 +6,7 @@
 //! rotation about z and a uniform scale. Its z translation and z scale are ignored (the
 //! world is the xy plane); anything else is [`CcdError::UnsupportedTransform`].
 
+use bevy_ecs::change_detection::Tick;
 use bevy_ecs::prelude::*;
 use bevy_transform::components::Transform;
 use glam::Vec2;
@@ -96,6 +97,16 @@ impl Planar {
 pub(crate) type Ancestry<'w, 's> =
     Query<'w, 's, (Option<&'static Transform>, Option<&'static ChildOf>)>;
 
+/// The same, with change ticks: whether a chain moved since the last step.
+pub(crate) type TickedAncestry<'w, 's> = Query<
+    'w,
+    's,
+    (
+        Option<Ref<'static, Transform>>,
+        Option<Ref<'static, ChildOf>>,
+    ),
+>;
+
 /// The pose of `entity` in the frame of its ancestor `frame` (the world when `None` or when
 /// `frame` is not an ancestor): its own `Transform` composed with those of its ancestors below
 /// `frame`.
@@ -104,10 +115,20 @@ pub(crate) fn pose_in(
     frame: Option<Entity>,
     ancestry: &Ancestry,
 ) -> Result<Planar, CcdError> {
+    pose_with(entity, frame, |at| ancestry.get(at).ok())
+}
+
+/// [`pose_in`] with the `Transform` and parent of each entity read by `link` (`None` for an
+/// entity that is not there): a query in the systems, the world in a component hook.
+pub(crate) fn pose_with<'a>(
+    entity: Entity,
+    frame: Option<Entity>,
+    link: impl Fn(Entity) -> Option<(Option<&'a Transform>, Option<&'a ChildOf>)>,
+) -> Result<Planar, CcdError> {
     let mut pose = Planar::IDENTITY;
     let mut at = entity;
     for _ in 0..=MAX_HIERARCHY_DEPTH {
-        let Ok((Some(transform), parent)) = ancestry.get(at) else {
+        let Some((Some(transform), parent)) = link(at) else {
             return Err(CcdError::InvalidHierarchy);
         };
         pose = Planar::of(transform)?.compose(pose);
@@ -118,6 +139,91 @@ pub(crate) fn pose_in(
         }
     }
     Err(CcdError::InvalidHierarchy)
+}
+
+/// The world pose of a CCD body with the `Transform` `own` under `parent`, and its parent's
+/// world pose, which the write-back turns a resolved world pose back into a local one with.
+///
+/// A body's collider is never scaled: its own scale is ignored, as a root body's is, and its
+/// parent's world scale must be 1 (within [`SCALE_TOLERANCE`]), else
+/// [`CcdError::UnsupportedTransform`]: the solver keeps one shape per body, read from its
+/// collider in place, and a scaled copy of it per step would cost every body's solve.
+pub(crate) fn body_pose<'a>(
+    own: &Transform,
+    parent: Entity,
+    link: impl Fn(Entity) -> Option<(Option<&'a Transform>, Option<&'a ChildOf>)>,
+) -> Result<(Planar, Planar), CcdError> {
+    let frame = pose_with(parent, None, link)?;
+    if (frame.scale - 1.0).abs() > SCALE_TOLERANCE {
+        return Err(CcdError::UnsupportedTransform);
+    }
+    let Some((position, angle)) = super::components::pose_of(own) else {
+        return Err(CcdError::NonFiniteTransform);
+    };
+    let local = Planar {
+        position,
+        angle,
+        scale: 1.0,
+    };
+    Ok((frame.compose(local), frame))
+}
+
+/// Whether the `Transform` or the `ChildOf` of `entity` changed (added, set or replaced) after
+/// `since`. A removal is not a change here: the callers read the removals themselves.
+pub(crate) fn moved_since(
+    entity: Entity,
+    ticked: &TickedAncestry,
+    since: Tick,
+    this_run: Tick,
+) -> bool {
+    ticked.get(entity).is_ok_and(|(transform, parent)| {
+        transform.is_some_and(|t| t.last_changed().is_newer_than(since, this_run))
+            || parent.is_some_and(|p| p.last_changed().is_newer_than(since, this_run))
+    })
+}
+
+/// Whether `entity` or any of its ancestors moved or was reparented after `since`
+/// ([`moved_since`]), or the chain is broken (an ancestor missing, without a `Transform`, or
+/// deeper than [`MAX_HIERARCHY_DEPTH`]): either way, its world pose must be composed again.
+pub(crate) fn chain_moved_since(
+    entity: Entity,
+    ticked: &TickedAncestry,
+    since: Tick,
+    this_run: Tick,
+) -> bool {
+    let mut at = entity;
+    for _ in 0..=MAX_HIERARCHY_DEPTH {
+        let Ok((Some(transform), parent)) = ticked.get(at) else {
+            return true;
+        };
+        if transform.last_changed().is_newer_than(since, this_run)
+            || parent
+                .as_ref()
+                .is_some_and(|p| p.last_changed().is_newer_than(since, this_run))
+        {
+            return true;
+        }
+        match parent {
+            Some(up) => at = up.parent(),
+            None => return false,
+        }
+    }
+    true
+}
+
+/// Pushes the ancestors of `entity` (not itself) onto `out`, as far up as the chain goes
+/// (at most [`MAX_HIERARCHY_DEPTH`]).
+pub(crate) fn push_ancestors(entity: Entity, ancestry: &Ancestry, out: &mut Vec<Entity>) {
+    let mut at = entity;
+    for _ in 0..MAX_HIERARCHY_DEPTH {
+        match ancestry.get(at) {
+            Ok((_, Some(parent))) => {
+                at = parent.parent();
+                out.push(at);
+            }
+            _ => return,
+        }
+    }
 }
 
 #[cfg(test)]

@@ -16,6 +16,7 @@ pub(crate) fn send_impacts(
     let ws: &CcdWorkspace = &workspace;
     let lane_len = ws.lane_len.max(1);
     let target = |index: u32| ws.static_entities[index as usize];
+    let collider = |index: u32| ws.static_colliders[index as usize];
     let mut sent = 0;
     // Lane by lane, in gathering order; each lane's `hit` list names its bodies with impacts,
     // so the others are not visited again.
@@ -29,6 +30,7 @@ pub(crate) fn send_impacts(
                 impacts.write(CcdImpact {
                     body: body.entity,
                     target: target(i.target),
+                    target_collider: collider(i.target),
                     fraction: i.fraction,
                     point: i.point,
                     normal: i.normal,

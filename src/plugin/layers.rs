@@ -84,7 +84,8 @@ impl Default for CollisionLayers {
 /// with the static hierarchy, which is rebuilt before the next sweep. A body's are read each
 /// step.
 fn layers_changed(mut world: DeferredWorld, context: HookContext) {
-    if world.entity(context.entity).contains::<StaticCollider>()
+    if (world.entity(context.entity).contains::<StaticCollider>()
+        || super::components::is_static_part(&world, context.entity))
         && let Some(mut workspace) = world.get_resource_mut::<CcdWorkspace>()
     {
         workspace.statics_changed();

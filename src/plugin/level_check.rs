@@ -126,6 +126,7 @@ fn step_level(resolution: Resolution, parallel: bool) -> (Vec<Outcome>, Vec<Outc
             first: CcdImpact {
                 body: entity,
                 target: static_entities[i.target as usize],
+                target_collider: static_entities[i.target as usize],
                 fraction: i.fraction,
                 point: i.point,
                 normal: i.normal,

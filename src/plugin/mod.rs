@@ -14,7 +14,6 @@ mod config;
 pub(crate) mod debug;
 mod diagnostics;
 mod gather;
-#[allow(dead_code)] // until the record, statics and compound passes use it
 mod hierarchy;
 mod impacts;
 mod layers;

@@ -28,8 +28,11 @@ use crate::geometry::ToiFailure;
 pub struct CcdImpact {
     /// The CCD body.
     pub body: Entity,
-    /// The static target it hit.
+    /// The static target it hit: the [`StaticCollider`](super::StaticCollider) entity.
     pub target: Entity,
+    /// The collider of the target it hit: `target` itself when the target is its own
+    /// [`Collider`](super::Collider), else the part of it (a child collider below it).
+    pub target_collider: Entity,
     /// Fraction of the step at which it hit, in `[0, 1]`.
     pub fraction: f32,
     /// Contact point (world, m).

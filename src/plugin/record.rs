@@ -12,6 +12,7 @@ use glam::Vec2;
 use smallvec::SmallVec;
 
 use super::components::pose_of;
+use super::hierarchy::{Ancestry, TickedAncestry, body_pose, chain_moved_since};
 use super::parallel::{MAX_ITEMS, hand_out, pool, workers};
 use super::workspace::CcdWorkspace;
 use super::{CcdConfig, CcdEnabled, StaticCollider, StepPoses, Velocity};
@@ -30,16 +31,63 @@ pub(crate) fn step_length(config: &CcdConfig, time: Option<&Time<Fixed>>) -> f32
 /// to a half turn either side of 0) instead of read off the quaternion with an `atan2`. That
 /// is every body the user moves only in the fixed step's movement systems, which run after
 /// this one.
+///
+/// Bodies with a parent (`ChildOf`) are recorded in a second, serial pass, in world
+/// coordinates ([`body_pose`]): the start is copied from the resolved pose only when neither
+/// the body nor any of its ancestors moved or was reparented since the write-back
+/// ([`chain_moved_since`]), else composed again from the `Transform`s; a chain with no world
+/// pose leaves the start at NaN and its reason in the workspace's `child_frames`.
 pub(crate) fn record_start(
     config: Res<CcdConfig>,
     mut workspace: ResMut<CcdWorkspace>,
     ticks: SystemChangeTick,
-    mut bodies: Query<(Ref<Transform>, &mut StepPoses, &CcdEnabled), Without<StaticCollider>>,
+    mut bodies: RootBodies<(Ref<Transform>, &mut StepPoses, &CcdEnabled)>,
+    mut children: ChildBodies<(Entity, &Transform, &mut StepPoses, &CcdEnabled, &ChildOf)>,
+    ticked: TickedAncestry,
+    mut lost_parent: RemovedComponents<ChildOf>,
 ) {
     let written_at = workspace.written_at;
     workspace.step = workspace.step.wrapping_add(1);
     let step = workspace.step;
     let this_run = ticks.this_run();
+    // A body or an ancestor that lost its parent kept its `Transform` and its tick, but its
+    // world pose changed: such a body's start is read again, and every child body's composed
+    // again (a rare event, so all of them).
+    let mut reparented = false;
+    for entity in lost_parent.read() {
+        reparented = true;
+        if let Ok((_, mut sweep, _)) = bodies.get_mut(entity) {
+            sweep.bypass_change_detection().resolved_valid = false;
+        }
+    }
+    workspace.child_frames.clear();
+    for (entity, transform, mut sweep, enabled, parent) in &mut children {
+        let sweep = sweep.bypass_change_detection();
+        sweep.recorded = enabled.0;
+        sweep.recorded_in = step;
+        let unchanged = !reparented
+            && sweep.resolved_valid
+            && written_at.is_some_and(|at| !chain_moved_since(entity, &ticked, at, this_run));
+        if unchanged {
+            sweep.start_position = sweep.resolved_position;
+            sweep.start_angle = wrap_angle(sweep.resolved_angle);
+            continue;
+        }
+        let link = |e| {
+            let (t, p) = ticked.get(e).ok()?;
+            Some((t.map(Ref::into_inner), p.map(Ref::into_inner)))
+        };
+        match body_pose(transform, parent.parent(), link) {
+            Ok((world, _)) => {
+                sweep.start_position = world.position;
+                sweep.start_angle = wrap_angle(world.angle);
+            }
+            Err(error) => {
+                sweep.start_position = Vec2::NAN;
+                workspace.child_frames.push((entity, Err(error)));
+            }
+        }
+    }
     let record = |transform: &Transform, changed: Tick, sweep: &mut StepPoses, enabled: bool| {
         sweep.recorded = enabled;
         sweep.recorded_in = step;
@@ -141,18 +189,69 @@ fn nearest_whole(x: f32) -> f32 {
 /// round is taken; with one, the number of whole turns is the one closest to
 /// `angular velocity * step`, so a body spinning three turns per step is swept through all
 /// three.
+///
+/// Bodies with a parent are recorded in a second, serial pass, in world coordinates
+/// ([`body_pose`]); each one's parent pose (or why its chain has none) goes to the
+/// workspace's `child_frames` for the write-back.
 pub(crate) fn record_end(
     config: Res<CcdConfig>,
     time: Option<Res<Time<Fixed>>>,
-    mut bodies: Query<(&Transform, &mut StepPoses, Option<&Velocity>), Without<StaticCollider>>,
+    mut workspace: ResMut<CcdWorkspace>,
+    mut bodies: RootBodies<(&Transform, &mut StepPoses, Option<&Velocity>)>,
+    mut children: ChildBodies<(
+        Entity,
+        &Transform,
+        &mut StepPoses,
+        Option<&Velocity>,
+        &ChildOf,
+    )>,
+    ancestry: Ancestry,
 ) {
-    use core::f32::consts::{PI, TAU};
     let dt = step_length(&config, time.as_deref());
     let record = |transform: &Transform, sweep: &mut StepPoses, velocity: Option<&Velocity>| {
+        record_end_pose(|| pose_of(transform), sweep, velocity, dt);
+    };
+    let frames = &mut workspace.child_frames;
+    for (entity, transform, mut sweep, velocity, parent) in &mut children {
+        let sweep = sweep.bypass_change_detection();
+        if !sweep.recorded {
+            continue;
+        }
+        let pose = body_pose(transform, parent.parent(), |e| ancestry.get(e).ok());
+        let world = pose
+            .ok()
+            .map(|(world, _)| (world.position, wrap_angle(world.angle)));
+        record_end_pose(|| world, sweep, velocity, dt);
+        frames.push((entity, pose.map(|(_, frame)| frame)));
+    }
+    // By entity, for the write-back's lookups; an error of the start pass (pushed first, and
+    // the sort is stable) wins over the end pass's pose.
+    frames.sort_by_key(|(entity, _)| *entity);
+    frames.dedup_by_key(|(entity, _)| *entity);
+    record_root_ends(&config, &mut bodies, record);
+}
+
+/// The body query of a record pass's root bodies, read table by table.
+type RootBodies<'w, 's, D> = Query<'w, 's, D, (Without<StaticCollider>, Without<ChildOf>)>;
+
+/// The body query of a record pass's child bodies (those with a `ChildOf`).
+type ChildBodies<'w, 's, D> = Query<'w, 's, D, (Without<StaticCollider>, With<ChildOf>)>;
+
+/// The end pose of one recorded body, from `pose` (its world pose, `None` when it has none),
+/// unwrapped against its start with its velocity over `dt` ([`record_end`]).
+#[inline]
+fn record_end_pose(
+    pose: impl FnOnce() -> Option<(Vec2, f32)>,
+    sweep: &mut StepPoses,
+    velocity: Option<&Velocity>,
+    dt: f32,
+) {
+    use core::f32::consts::{PI, TAU};
+    {
         if !sweep.recorded {
             return;
         }
-        let Some((p, a)) = pose_of(transform) else {
+        let Some((p, a)) = pose() else {
             sweep.end_position = Vec2::NAN;
             sweep.resolved_valid = false;
             return;
@@ -183,7 +282,16 @@ pub(crate) fn record_end(
         sweep.resolved_position = p;
         sweep.resolved_angle = sweep.end_angle;
         sweep.resolved_valid = true;
-    };
+    }
+}
+
+/// The contiguous pass of [`record_end`] over the root bodies, split over the pool when they
+/// are many.
+fn record_root_ends(
+    config: &CcdConfig,
+    bodies: &mut RootBodies<(&Transform, &mut StepPoses, Option<&Velocity>)>,
+    record: impl Fn(&Transform, &mut StepPoses, Option<&Velocity>) + Sync,
+) {
     match bodies.contiguous_iter_mut() {
         Ok(tables) => {
             let mut tables: SmallVec<[_; RECORD_TABLES]> = tables.collect();
@@ -192,7 +300,7 @@ pub(crate) fn record_end(
                 .iter()
                 .map(|(transforms, _, _)| transforms.len())
                 .sum();
-            let pool = record_pool(&config, total);
+            let pool = record_pool(config, total);
             let len = piece_len(pool, total);
             let mut pieces = Pieces::new();
             for (transforms, sweeps, velocities) in &mut tables {

@@ -16,7 +16,7 @@ use super::record::step_length;
 use super::workspace::{
     BodyEntry, CcdWorkspace, HAS_MASS, HAS_VELOCITY, Lane, NUDGED, OVERLAPPING, WAS_CLEAR, Warned,
 };
-use super::write::{WriteQuery, write_lane};
+use super::write::{StaticTargets, WriteQuery, write_lane};
 use super::{CcdConfig, CcdDiagnostics, Collider, Resolution, StaticCollider, StepPoses};
 use crate::geometry::constants::MAX_SUBSTEPS;
 use crate::geometry::{self, BodyState, ShapeProxy, SolveSettings, StaticSet, solve_body};
@@ -83,12 +83,19 @@ pub(crate) fn solve(
     let CcdWorkspace {
         statics,
         static_entities,
+        static_colliders,
+        child_frames,
         static_layers,
         bodies: entries,
         lanes,
         ..
     } = workspace;
-    let (statics, static_entities): (&StaticSet, &[Entity]) = (statics, static_entities);
+    let statics: &StaticSet = statics;
+    let targets = StaticTargets {
+        entities: static_entities,
+        colliders: static_colliders,
+        child_frames,
+    };
     // Filled by index, not pushed, so that the lanes already listed can be handed out while
     // the rest is listed; in the steady state the length is already right and this writes
     // nothing. Exactly as many as can be gathered, so that the buffer does not double past
@@ -130,7 +137,7 @@ pub(crate) fn solve(
                 solve_lane(chunk, lane, statics, &settings, &colliders);
             },
         ),
-        |queries, (chunk, lane)| write_lane(chunk, lane, &mut queries.p1(), static_entities),
+        |queries, (chunk, lane)| write_lane(chunk, lane, &mut queries.p1(), &targets),
     );
     entries.truncate(listed);
     if listing.clamped & Warned::RESTITUTION != 0 {

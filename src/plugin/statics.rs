@@ -1,45 +1,98 @@
 //! [`CcdStepSystems::UpdateStatics`](super::CcdStepSystems::UpdateStatics): the static
-//! hierarchy kept current with the world's [`StaticCollider`]s.
+//! hierarchy kept current with the world's [`StaticCollider`]s and their parts.
+//!
+//! A target is a [`StaticCollider`] entity: its own [`Collider`], if it has one, and its
+//! *parts*, the entities below it in the `ChildOf` hierarchy with a [`Collider`] and neither a
+//! [`StaticCollider`] nor a [`CcdEnabled`] of their own (the nearest such ancestor owns a
+//! part). Each collider becomes one item of the hierarchy, at its world pose composed from the
+//! `Transform`s at the time the step runs ([`pose_in`]), its shape scaled by the chain's
+//! uniform scale.
 
 use bevy_ecs::prelude::*;
-use bevy_ecs::system::SystemParam;
+use bevy_ecs::system::{SystemChangeTick, SystemParam};
 use bevy_transform::components::Transform;
 
-use super::components::pose_of;
+use super::hierarchy::{
+    Ancestry, MAX_HIERARCHY_DEPTH, Planar, TickedAncestry, moved_since, pose_in, push_ancestors,
+};
 use super::workspace::CcdWorkspace;
-use super::{CcdConfig, CcdDiagnostics, Collider, CollisionLayers, StaticCollider};
+use super::{CcdConfig, CcdDiagnostics, CcdEnabled, Collider, CollisionLayers, StaticCollider};
 use crate::geometry::{self, Aabb, Pose, StaticItem};
+
+/// What the rebuild reads of a target.
+type StaticData = (
+    Entity,
+    Option<&'static Collider>,
+    Option<&'static Transform>,
+    Option<&'static CollisionLayers>,
+    Has<ChildOf>,
+);
+/// What the rebuild reads of a part.
+type PartData = (Entity, &'static Collider, Option<&'static CollisionLayers>);
+/// A child that is neither a target nor a body: a part, if a target is above it.
+type PartFilter = (With<ChildOf>, Without<StaticCollider>, Without<CcdEnabled>);
+/// Moved or reparented since the last run.
+type Moved = Or<(Changed<Transform>, Changed<ChildOf>)>;
+/// What [`owner`] reads of each entity on the way up.
+type Kinds = (
+    Has<StaticCollider>,
+    Has<CcdEnabled>,
+    Option<&'static ChildOf>,
+);
 
 /// What [`update_statics`] reads of the world.
 #[derive(SystemParam)]
 pub(crate) struct StaticWatch<'w, 's> {
-    statics: Query<
-        'w,
-        's,
-        (
-            Entity,
-            &'static Collider,
-            &'static Transform,
-            Option<&'static CollisionLayers>,
-        ),
-        With<StaticCollider>,
-    >,
-    moved: Query<'w, 's, (), (With<StaticCollider>, Changed<Transform>)>,
-    is_static: Query<'w, 's, (), With<StaticCollider>>,
+    statics: Query<'w, 's, StaticData, With<StaticCollider>>,
+    /// Every child collider that is not a target or a body itself: a part of the target
+    /// above it, if there is one ([`owner`]).
+    parts: Query<'w, 's, PartData, PartFilter>,
+    kinds: Query<'w, 's, Kinds>,
+    ancestry: Ancestry<'w, 's>,
+    ticked: TickedAncestry<'w, 's>,
+    moved: Query<'w, 's, (), (With<StaticCollider>, Moved)>,
+    moved_parts: Query<'w, 's, Entity, (PartFilter, With<Collider>, Moved)>,
     lost_transform: RemovedComponents<'w, 's, Transform>,
+    lost_parent: RemovedComponents<'w, 's, ChildOf>,
+    ticks: SystemChangeTick,
+}
+
+/// The target a part belongs to: the nearest ancestor of `entity` with a [`StaticCollider`],
+/// unless a [`CcdEnabled`] body comes first (then it is a part of that body, not of a target).
+fn owner(entity: Entity, kinds: &Query<Kinds>) -> Option<Entity> {
+    let mut at = entity;
+    for _ in 0..MAX_HIERARCHY_DEPTH {
+        let (_, _, parent) = kinds.get(at).ok()?;
+        at = parent?.parent();
+        match kinds.get(at).ok()? {
+            (true, _, _) => return Some(at),
+            (false, true, _) => return None,
+            _ => {}
+        }
+    }
+    None
 }
 
 /// [`CcdStepSystems::UpdateStatics`](super::CcdStepSystems::UpdateStatics): rebuild the
-/// static hierarchy when a static was added, removed, moved, reshaped or given new layers. Targets are indexed
-/// in entity order, so the tree and every candidate list are deterministic.
+/// static hierarchy when a target was added, removed, moved, reshaped or given new layers,
+/// or when one of its parts or ancestors was. Items are indexed in the order of their target
+/// entity, then of their collider entity, so the tree and every candidate list are
+/// deterministic.
 ///
 /// Additions, removals and new shapes reach the workspace through the hooks of
-/// [`StaticCollider`] and [`Collider`] (which is immutable for that reason), so the only scan
-/// left each step is the one a hook cannot replace: statics whose `Transform` changed. It reads
-/// one change tick per static.
+/// [`StaticCollider`], [`Collider`] and [`CollisionLayers`] (which are immutable for that
+/// reason), so the scans left each step are those a hook cannot replace: targets and child
+/// colliders whose `Transform` or `ChildOf` changed (one change tick each), and the ancestors
+/// of the items found at the last rebuild (their ticks, one lookup each: none in a world
+/// without hierarchies).
 ///
-/// A static any point of which is further than `limit` ([`geometry::max_world_coordinate`] of
-/// the slop) from the origin along an axis is ignored, with a warning.
+/// Moving an ancestor moves its targets for the next step as a teleport: statics are not
+/// swept. A static any point of which is further than `limit` ([`geometry::max_world_coordinate`]
+/// of the slop) from the origin along an axis, or whose chain gives no world pose
+/// ([`CcdError::InvalidHierarchy`](super::CcdError::InvalidHierarchy): a missing ancestor or
+/// `Transform`, a cycle; [`CcdError::UnsupportedTransform`](super::CcdError::UnsupportedTransform):
+/// a scale that is zero, negative or not uniform, a rotation out of the plane; or a non-finite
+/// `Transform`), is left out, with a warning at each rebuild.
 pub(crate) fn update_statics(
     config: Res<CcdConfig>,
     mut workspace: ResMut<CcdWorkspace>,
@@ -56,66 +109,151 @@ pub(crate) fn update_statics(
     }
 }
 
-/// Rebuilds the hierarchy of `workspace` unless it holds every static as it is now, each
-/// within `limit` of the origin.
-fn rebuild_if_stale(workspace: &mut CcdWorkspace, watch: &mut StaticWatch, limit: f32) {
+/// Whether something the hierarchy was built from has changed since the last run: a target,
+/// a part or an ancestor of one moved, was reparented or lost its `Transform` or parent.
+fn stale(workspace: &CcdWorkspace, watch: &mut StaticWatch) -> bool {
     let StaticWatch {
-        statics,
+        kinds,
+        ticked,
         moved,
-        is_static,
+        moved_parts,
         lost_transform,
+        lost_parent,
+        ticks,
+        ..
     } = watch;
+    let known = |entity: Entity| {
+        kinds.get(entity).is_ok_and(|(is_static, _, _)| is_static)
+            || workspace.static_part(entity).is_some()
+            || workspace.static_ancestors.binary_search(&entity).is_ok()
+    };
     // Every removal is read, so that none is seen again next step.
     let lost = lost_transform
         .read()
-        .fold(false, |lost, entity| lost | is_static.contains(entity));
-    if workspace.statics_ready && workspace.statics_limit == limit && !lost && moved.is_empty() {
+        .chain(lost_parent.read())
+        .fold(false, |lost, entity| lost | known(entity));
+    lost || !moved.is_empty()
+        || moved_parts
+            .iter()
+            .any(|e| workspace.static_part(e).is_some() || owner(e, kinds).is_some())
+        || workspace
+            .static_ancestors
+            .iter()
+            .any(|&a| moved_since(a, ticked, ticks.last_run(), ticks.this_run()))
+}
+
+/// One item of the hierarchy before it is sorted: target, collider, shape and pose, layers.
+type Listed = (Entity, Entity, StaticItem, CollisionLayers);
+
+/// Rebuilds the hierarchy of `workspace` unless it holds every static as it is now, each
+/// within `limit` of the origin.
+fn rebuild_if_stale(workspace: &mut CcdWorkspace, watch: &mut StaticWatch, limit: f32) {
+    let changed = stale(workspace, watch);
+    if workspace.statics_ready && workspace.statics_limit == limit && !changed {
         return;
     }
+    let StaticWatch {
+        statics,
+        parts,
+        kinds,
+        ancestry,
+        ..
+    } = watch;
     let within = |bounds: Aabb| bounds.min.abs().max(bounds.max.abs()).max_element() <= limit;
-    let mut list: Vec<(Entity, StaticItem, CollisionLayers)> = statics
-        .iter()
-        .filter_map(
-            |(entity, collider, transform, layers)| match pose_of(transform) {
-                Some((position, angle))
-                    if within(collider.proxy().aabb(Pose::new(position, angle))) =>
-                {
-                    Some((
-                        entity,
-                        StaticItem {
-                            proxy: *collider.proxy(),
-                            position,
-                            angle,
-                        },
-                        layers.copied().unwrap_or_default(),
-                    ))
-                }
-                _ => {
-                    log::warn!(
-                        "bevy_ccd: static {entity} has a non-finite Transform or reaches beyond \
-                     {limit} m from the origin (the limit at this slop); ignored"
-                    );
-                    None
-                }
-            },
-        )
-        .collect();
-    list.sort_by_key(|(entity, _, _)| *entity);
+    // An item at its world pose, or why it is left out.
+    let item = |collider: &Collider, pose: Result<Planar, super::CcdError>| {
+        let pose = pose?;
+        let proxy = if pose.scale == 1.0 {
+            *collider.proxy()
+        } else {
+            collider.proxy().scaled(pose.scale)
+        };
+        let item = StaticItem {
+            proxy,
+            position: pose.position,
+            angle: pose.angle,
+        };
+        if !proxy.is_finite() || !within(proxy.aabb(Pose::new(pose.position, pose.angle))) {
+            return Err(super::CcdError::CoordinatesTooLarge);
+        }
+        Ok(item)
+    };
+    let warn = |entity: Entity, error: super::CcdError| {
+        log::warn!(
+            "bevy_ccd: static {entity} left out: {error:?} (a non-finite Transform, a chain of \
+             ChildOf with no planar world pose, or reaching beyond {limit} m from the origin, \
+             the limit at this slop)"
+        );
+    };
+    let mut list: Vec<Listed> = Vec::new();
+    let mut ancestors = core::mem::take(&mut workspace.static_ancestors);
+    ancestors.clear();
+    for (entity, collider, transform, layers, has_parent) in statics.iter() {
+        let Some(collider) = collider else {
+            continue;
+        };
+        // A root static's pose is its own `Transform`'s: no lookup.
+        let pose = match (has_parent, transform) {
+            (false, Some(transform)) => Planar::of(transform),
+            _ => {
+                push_ancestors(entity, ancestry, &mut ancestors);
+                pose_in(entity, None, ancestry)
+            }
+        };
+        match item(collider, pose) {
+            Ok(item) => list.push((entity, entity, item, layers.copied().unwrap_or_default())),
+            Err(error) => warn(entity, error),
+        }
+    }
+    for (entity, collider, layers) in parts.iter() {
+        let Some(target) = owner(entity, kinds) else {
+            continue;
+        };
+        push_ancestors(entity, ancestry, &mut ancestors);
+        // The part's own layers, else its target's.
+        let layers = layers
+            .or_else(|| statics.get(target).ok().and_then(|(_, _, _, l, _)| l))
+            .copied()
+            .unwrap_or_default();
+        match item(collider, pose_in(entity, None, ancestry)) {
+            Ok(item) => list.push((target, entity, item, layers)),
+            Err(error) => warn(entity, error),
+        }
+    }
+    ancestors.sort_unstable();
+    ancestors.dedup();
+    workspace.static_ancestors = ancestors;
+    list.sort_by_key(|(target, collider, _, _)| (*target, *collider));
     workspace.static_entities.clear();
     workspace
         .static_entities
-        .extend(list.iter().map(|(e, _, _)| *e));
+        .extend(list.iter().map(|(target, _, _, _)| *target));
+    workspace.static_colliders.clear();
+    workspace
+        .static_colliders
+        .extend(list.iter().map(|(_, collider, _, _)| *collider));
+    workspace.static_parts.clear();
+    workspace.static_parts.extend(
+        list.iter()
+            .enumerate()
+            .filter(|(_, (target, collider, _, _))| target != collider)
+            .map(|(index, (_, collider, _, _))| (*collider, index as u32)),
+    );
+    workspace.static_parts.sort_unstable();
     // Layers are kept only when some target has other than the default, so that a world
     // without layers skips the filter altogether.
     workspace.static_layers.clear();
-    if list.iter().any(|(_, _, l)| *l != CollisionLayers::DEFAULT) {
+    if list
+        .iter()
+        .any(|(_, _, _, l)| *l != CollisionLayers::DEFAULT)
+    {
         workspace
             .static_layers
-            .extend(list.iter().map(|(_, _, l)| *l));
+            .extend(list.iter().map(|(_, _, _, l)| *l));
     }
     workspace
         .statics
-        .rebuild(list.into_iter().map(|(_, item, _)| item));
+        .rebuild(list.into_iter().map(|(_, _, item, _)| item));
     workspace.statics_ready = true;
     workspace.statics_limit = limit;
     workspace.rebuilds += 1;

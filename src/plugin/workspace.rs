@@ -7,6 +7,7 @@ use bevy_ecs::prelude::*;
 use glam::Vec2;
 
 use super::CollisionLayers;
+use super::hierarchy::Planar;
 use super::outcome::CcdError;
 use crate::geometry::{self, ImpactRecord, StaticSet};
 
@@ -92,8 +93,22 @@ impl Lane {
 #[derive(Resource, Default)]
 pub(crate) struct CcdWorkspace {
     pub(crate) statics: StaticSet,
-    /// The entity of each target (target `i` is the `i`-th static in entity order).
+    /// The target entity of each item, the [`StaticCollider`](super::StaticCollider) (items
+    /// are in the order of their target entity, then of their collider entity).
     pub(crate) static_entities: Vec<Entity>,
+    /// The collider entity of each item: the target's own, or one of its parts.
+    pub(crate) static_colliders: Vec<Entity>,
+    /// The parts (colliders below a target) in the hierarchy and their item index, sorted by
+    /// entity.
+    pub(crate) static_parts: Vec<(Entity, u32)>,
+    /// The ancestors of the items at the last rebuild, sorted and deduplicated: when one
+    /// moves, the hierarchy is rebuilt.
+    pub(crate) static_ancestors: Vec<Entity>,
+    /// This step's child bodies (sorted by entity): their parent's world pose at
+    /// [`record_end`](super::record::record_end), which the write-back turns a resolved world
+    /// pose into a local `Transform` with, or why their chain has none. Empty in a world
+    /// without child bodies.
+    pub(crate) child_frames: Vec<(Entity, Result<Planar, CcdError>)>,
     /// The layers of each target, in target order; empty when every target has the default
     /// layers.
     pub(crate) static_layers: Vec<CollisionLayers>,
@@ -135,14 +150,38 @@ impl CcdWorkspace {
     }
 
     /// A static's [`StaticCollider`](super::StaticCollider) or [`Collider`](super::Collider)
-    /// was removed (or it was despawned): the hierarchy is stale, and the target is not hit
-    /// from now on, also by a step under way whose hierarchy holds it. Called by their hooks.
+    /// was removed (or it was despawned): the hierarchy is stale, and the target (all its
+    /// items, parts included) is not hit from now on, also by a step under way whose hierarchy
+    /// holds it. Called by their hooks.
     pub(crate) fn static_removed(&mut self, entity: Entity) {
         self.statics_ready = false;
-        // Targets are in entity order.
-        if let Ok(index) = self.static_entities.binary_search(&entity) {
+        // Items are in target order.
+        let first = self.static_entities.partition_point(|e| *e < entity);
+        let count = self.static_entities[first..]
+            .iter()
+            .take_while(|e| **e == entity)
+            .count();
+        for index in first..first + count {
             self.statics.disable(index);
         }
+    }
+
+    /// A part's [`Collider`](super::Collider) was removed: if it is in the hierarchy, the
+    /// hierarchy is stale and the part is not hit from now on. Called by its hook.
+    pub(crate) fn part_removed(&mut self, entity: Entity) {
+        if let Some(index) = self.static_part(entity) {
+            self.statics_ready = false;
+            self.statics.disable(index as usize);
+        }
+    }
+
+    /// The item index of `entity` if it is a part of a target in the hierarchy.
+    pub(crate) fn static_part(&self, entity: Entity) -> Option<u32> {
+        let at = self
+            .static_parts
+            .binary_search_by_key(&entity, |(e, _)| *e)
+            .ok()?;
+        Some(self.static_parts[at].1)
     }
 
     /// Gives a warning, unless one of this kind was given before.

@@ -5,6 +5,7 @@ use bevy_ecs::prelude::*;
 use bevy_transform::components::Transform;
 use glam::Quat;
 
+use super::hierarchy::Planar;
 use super::outcome::{CcdError, CcdImpact, CcdOutcome, Hits};
 use super::workspace::{BodyEntry, HAS_VELOCITY, Lane, NUDGED, OVERLAPPING};
 use super::{StaticCollider, StepPoses, Velocity};
@@ -39,13 +40,19 @@ pub(crate) type WriteQuery<'w, 's> = Query<
 /// list, those with impacts, errors or overlaps, and those whose outcome was not clear
 /// before. The others (most bodies, most steps) were clear and stay clear, at the end pose
 /// `record_end` already wrote as resolved.
+///
+/// A child body's poses are world poses; its resolved one is written back as the local
+/// `Transform` that gives it under its parent as the parent was at
+/// [`record_end`](super::record::record_end) (`parent.local_of(world)`, the user's z and
+/// scale kept). A child body whose chain has no world pose gets the error that says why.
 pub(crate) fn write_lane(
     chunk: &[BodyEntry],
     lane: &Lane,
     bodies: &mut WriteQuery,
-    static_entities: &[Entity],
+    targets: &StaticTargets,
 ) {
-    let target = |index: u32| static_entities[index as usize];
+    let target = |index: u32| targets.entities[index as usize];
+    let collider = |index: u32| targets.colliders[index as usize];
     for &index in &lane.visit {
         let body = &chunk[index as usize];
         // The entity was gathered this step, so it is there: the same schedule pass solves
@@ -56,11 +63,14 @@ pub(crate) fn write_lane(
         let failed = matches!(body.error, Some(e) if !matches!(e, CcdError::Toi(_)));
         if failed {
             sweep.bypass_change_detection().resolved_valid = false;
-            set_error(
-                &mut toi,
-                body.entity,
-                body.error.unwrap_or(CcdError::InvalidBodyData),
-            );
+            let mut error = body.error.unwrap_or(CcdError::InvalidBodyData);
+            // The record passes leave a child body without a world pose at NaN.
+            if error == CcdError::NonFiniteTransform
+                && let Some(Err(why)) = targets.frame(body.entity)
+            {
+                error = why;
+            }
+            set_error(&mut toi, body.entity, error);
             continue;
         }
         // Without an impact or a failure the body ends where its user put it: that pose
@@ -73,9 +83,20 @@ pub(crate) fn write_lane(
                 (body.position, body.angle)
             };
         if position != sweep.end_position || angle != sweep.end_angle {
-            transform.translation.x = position.x;
-            transform.translation.y = position.y;
-            transform.rotation = Quat::from_rotation_z(angle);
+            let (local, local_angle) = match targets.frame(body.entity) {
+                Some(Ok(parent)) => {
+                    let local = parent.local_of(Planar {
+                        position,
+                        angle,
+                        scale: parent.scale,
+                    });
+                    (local.position, local.angle)
+                }
+                _ => (position, angle),
+            };
+            transform.translation.x = local.x;
+            transform.translation.y = local.y;
+            transform.rotation = Quat::from_rotation_z(local_angle);
         }
         let sweep = sweep.bypass_change_detection();
         sweep.resolved_position = position;
@@ -94,6 +115,7 @@ pub(crate) fn write_lane(
                 first: CcdImpact {
                     body: body.entity,
                     target: target(i.target),
+                    target_collider: collider(i.target),
                     fraction: i.fraction,
                     point: i.point,
                     normal: i.normal,
@@ -114,5 +136,30 @@ pub(crate) fn write_lane(
         if *toi != outcome {
             *toi = outcome;
         }
+    }
+}
+
+/// What the write-back reads of the workspace besides the lane: each item's target and
+/// collider entity, and this step's child bodies' parent poses.
+pub(crate) struct StaticTargets<'a> {
+    pub(crate) entities: &'a [Entity],
+    pub(crate) colliders: &'a [Entity],
+    pub(crate) child_frames: &'a [(Entity, Result<Planar, CcdError>)],
+}
+
+impl StaticTargets<'_> {
+    /// A child body's parent pose, or why its chain has none; `None` for a root body. Looked
+    /// up only when the step has child bodies, so that a world without them pays one test
+    /// per written body.
+    #[inline]
+    fn frame(&self, entity: Entity) -> Option<Result<Planar, CcdError>> {
+        if self.child_frames.is_empty() {
+            return None;
+        }
+        let at = self
+            .child_frames
+            .binary_search_by_key(&entity, |(e, _)| *e)
+            .ok()?;
+        Some(self.child_frames[at].1)
     }
 }
