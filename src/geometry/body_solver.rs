@@ -22,6 +22,7 @@ use super::cull::reach_interval;
 use super::math::Pose;
 pub use super::pair::BodyState;
 use super::pair::{Contact, PairOutcome, contact_patch, pair_toi};
+use super::proxy::ShapeProxy;
 use super::response::{Response, patch_response};
 use super::static_set::{StaticSet, TargetRecord};
 use super::sweep::Sweep;
@@ -71,6 +72,8 @@ pub struct SolveSettings {
 pub struct ImpactRecord {
     /// Index of the target in the [`StaticSet`].
     pub target: u32,
+    /// Index of the body's part that hit it ([`solve_compound_body`]); 0 for [`solve_body`].
+    pub part: u32,
     /// Fraction of the whole step at which it happened.
     pub fraction: f32,
     /// Contact point (world).
@@ -107,9 +110,118 @@ pub struct BodyOutcome {
     pub nudged: bool,
 }
 
-/// Targets of one sweep that [`solve_body`] orders on the stack by when the body can first
-/// reach them (a swept box rarely holds more than a handful).
+/// (Part, target) pairs of one sweep that [`solve_body`] orders on the stack by when the body
+/// can first reach them (a swept box rarely holds more than a handful).
 const ORDERED_TARGETS: usize = 32;
+
+/// One collider of a compound body: its shape in the body frame (the body's own collider, or
+/// a child's placed and scaled into the body frame).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BodyPart {
+    /// Shape in the body frame.
+    pub proxy: ShapeProxy,
+    /// Centre of this part's core circle in the body frame (m): its own centre of mass, so
+    /// that the circle lies inside the part ([`BodyState::core_radius`]).
+    pub core_center: Vec2,
+    /// Radius of this part's core circle (m).
+    pub core_radius: f32,
+}
+
+/// The colliders of a compound body, and which (part, target) pairs may hit each other.
+#[derive(Clone, Copy, Debug)]
+pub struct Compound<'a, F> {
+    /// The parts, at least one; more than [`MAX_PARTS`] are ignored past it.
+    pub parts: &'a [BodyPart],
+    /// Whether part `part` (an index into `parts`) may hit target `target` (collision layers).
+    pub interacts: F,
+}
+
+/// The most parts of one body the solver sweeps: [`Compound::parts`] past it are ignored.
+pub const MAX_PARTS: usize = 16;
+
+/// What the solver asks of a body's colliders: the one-collider body is its own single part,
+/// monomorphised so that its path does exactly what it did before parts existed.
+trait Parts {
+    /// How many parts, at least 1.
+    fn count(&self) -> usize;
+    /// The body as seen through `part`: its shape and core radius, the rest the body's.
+    fn body(&self, part: usize) -> &BodyState;
+    /// Whether `part` may hit `target`.
+    fn interacts(&self, part: usize, target: u32) -> bool;
+}
+
+/// A body that is its own only collider.
+struct Single<'a>(&'a BodyState);
+
+impl Parts for Single<'_> {
+    #[inline(always)]
+    fn count(&self) -> usize {
+        1
+    }
+    #[inline(always)]
+    fn body(&self, _: usize) -> &BodyState {
+        self.0
+    }
+    #[inline(always)]
+    fn interacts(&self, _: usize, _: u32) -> bool {
+        true
+    }
+}
+
+/// A compound body: one [`BodyState`] per part, so that the pair tests run unchanged on each
+/// (the sweep they are given is the body's; a part's `local_center` is its core circle's
+/// centre, which is all the pair tests read it for).
+struct Many<F> {
+    states: SmallVec<[BodyState; 4]>,
+    interacts: F,
+}
+
+impl<F: Fn(usize, u32) -> bool> Parts for Many<F> {
+    fn count(&self) -> usize {
+        self.states.len()
+    }
+    fn body(&self, part: usize) -> &BodyState {
+        &self.states[part]
+    }
+    fn interacts(&self, part: usize, target: u32) -> bool {
+        (self.interacts)(part, target)
+    }
+}
+
+/// [`solve_body`] for a body made of several colliders moving as one rigid body: each part is
+/// swept with the body's motion, the earliest hit over every (part, target) pair wins (ties to
+/// the lower target, then the lower part), and the response acts at the hitting part's contact
+/// with the body's mass and inertia (`body`'s, the combined ones). `body.proxy` and
+/// `body.core_radius` are not used: the parts replace them (without parts, the body's own
+/// shape is its only part, as in [`solve_body`]).
+pub fn solve_compound_body(
+    body: &BodyState,
+    compound: Compound<'_, impl Fn(usize, u32) -> bool>,
+    statics: &StaticSet,
+    candidates: &[u32],
+    settings: &SolveSettings,
+    scratch: &mut Vec<u32>,
+    impacts: &mut Vec<ImpactRecord>,
+) -> BodyOutcome {
+    let parts = &compound.parts[..compound.parts.len().min(MAX_PARTS)];
+    if parts.is_empty() {
+        return solve_body(body, statics, candidates, settings, scratch, impacts);
+    }
+    let states = parts
+        .iter()
+        .map(|part| BodyState {
+            proxy: part.proxy,
+            local_center: part.core_center,
+            core_radius: part.core_radius,
+            ..*body
+        })
+        .collect();
+    let many = Many {
+        states,
+        interacts: compound.interacts,
+    };
+    solve(body, &many, statics, candidates, settings, scratch, impacts)
+}
 
 /// Sweeps one body against the static world and resolves its impacts.
 ///
@@ -133,10 +245,43 @@ pub fn solve_body(
     scratch: &mut Vec<u32>,
     impacts: &mut Vec<ImpactRecord>,
 ) -> BodyOutcome {
+    solve(
+        body,
+        &Single(body),
+        statics,
+        candidates,
+        settings,
+        scratch,
+        impacts,
+    )
+}
+
+/// The farthest core point of any part from `center`.
+#[inline(always)]
+fn parts_reach(parts: &impl Parts, center: Vec2) -> f32 {
+    let mut reach = parts.body(0).proxy.max_distance_from(center);
+    for part in 1..parts.count() {
+        reach = reach.max(parts.body(part).proxy.max_distance_from(center));
+    }
+    reach
+}
+
+/// [`solve_body`] over the parts of a body.
+#[inline(always)]
+fn solve(
+    body: &BodyState,
+    parts: &impl Parts,
+    statics: &StaticSet,
+    candidates: &[u32],
+    settings: &SolveSettings,
+    scratch: &mut Vec<u32>,
+    impacts: &mut Vec<ImpactRecord>,
+) -> BodyOutcome {
     let slop = settings.linear_slop;
     let dt = settings.dt;
+    let n = parts.count();
     // The farthest core point from the centre of mass: the reach of every sweep about it.
-    let reach = body.proxy.max_distance_from(body.local_center);
+    let reach = parts_reach(parts, body.local_center);
     let mut sweep = body.sweep;
     let implied = (sweep.linear_motion() / dt, sweep.angular_motion() / dt);
     let mut velocity = body.velocity.unwrap_or(implied);
@@ -157,14 +302,18 @@ pub fn solve_body(
     // The patches (world ends) of the contacts the last response acted on: the next sweep
     // starts at that pose, so its pair tests need not find them again, and decide on the very
     // points the response used.
-    let mut known: SmallVec<[(u32, (Vec2, Vec2)); MAX_CONTACTS]> = SmallVec::new();
+    let mut known: SmallVec<[(u32, u32, (Vec2, Vec2)); MAX_CONTACTS]> = SmallVec::new();
     let mut first = true;
     loop {
         let list: &[u32] = if first {
             candidates
         } else {
             scratch.clear();
-            statics.candidates(&body.proxy, &sweep, slop, scratch);
+            let mut bounds = parts.body(0).proxy.swept_aabb(&sweep);
+            for part in 1..n {
+                bounds = bounds.union(parts.body(part).proxy.swept_aabb(&sweep));
+            }
+            statics.candidates_in(bounds, slop, scratch);
             scratch
         };
         // The sweep's start rotation and its reach about the sweep's own centre of mass (what
@@ -173,16 +322,16 @@ pub fn solve_body(
         let sweep_reach = if sweep.local_center == body.local_center {
             reach
         } else {
-            body.proxy.max_distance_from(sweep.local_center)
+            parts_reach(parts, sweep.local_center)
         };
         let body_frame = BodyFrame::with_reach(&sweep, sweep_reach);
         // Visit the targets in the order the body can first reach them (branch and bound):
         // once that is later than the earliest hit so far, no target left can change the
         // answer. Targets the body never reaches drop out here. Short lists (nearly all) are
         // ordered on the stack; a longer one is visited as it comes.
-        let mut order = [((0.0f32, 1.0f32), 0u32); ORDERED_TARGETS];
+        let mut order = [((0.0f32, 1.0f32), 0u32, 0u32); ORDERED_TARGETS];
         let mut ordered = 0;
-        let short = list.len() <= ORDERED_TARGETS;
+        let short = list.len() * n <= ORDERED_TARGETS;
         if short {
             for &index in list {
                 let Some(key) = statics
@@ -193,31 +342,42 @@ pub fn solve_body(
                 else {
                     continue;
                 };
-                if let Some(window) = reach_interval(sweep_reach, &body.proxy, &sweep, key, slop) {
-                    // Insertion by (fraction, index): deterministic, ties in index order.
-                    let mut k = ordered;
-                    while k > 0 && order[k - 1].0.0 > window.0 {
-                        order[k] = order[k - 1];
-                        k -= 1;
+                for part in 0..n {
+                    if !parts.interacts(part, index) {
+                        continue;
                     }
-                    order[k] = (window, index);
-                    ordered += 1;
+                    let proxy = &parts.body(part).proxy;
+                    if let Some(window) = reach_interval(sweep_reach, proxy, &sweep, key, slop) {
+                        // Insertion by fraction after the pairs in (target, part) order:
+                        // deterministic, ties in that order.
+                        let mut k = ordered;
+                        while k > 0 && order[k - 1].0.0 > window.0 {
+                            order[k] = order[k - 1];
+                            k -= 1;
+                        }
+                        order[k] = (window, index, part as u32);
+                        ordered += 1;
+                    }
                 }
             }
         }
-        let visits = if short { ordered } else { list.len() };
-        // Earliest hit; ties go to the lowest target index.
-        let mut best: Option<(f32, u32, Contact, bool)> = None;
+        let visits = if short { ordered } else { list.len() * n };
+        // Earliest hit; ties go to the lowest target index, then the lowest part.
+        let mut best: Option<(f32, u32, u32, Contact, bool)> = None;
         let mut failed: Option<(f32, ToiFailure)> = None;
         // Every target the body touches at the start of the sweep: once it drives into one,
         // they are responded to together (a body in a corner).
-        let mut touching: SmallVec<[(u32, Contact); MAX_CONTACTS]> = SmallVec::new();
+        let mut touching: SmallVec<[(u32, u32, Contact); MAX_CONTACTS]> = SmallVec::new();
         let mut nudge = None;
         for visit in 0..visits {
-            let ((enter, leave), index) = if short {
+            let ((enter, leave), index, part) = if short {
                 order[visit]
             } else {
-                ((0.0, 1.0), list[visit])
+                let (index, part) = (list[visit / n], visit % n);
+                if !parts.interacts(part, index) {
+                    continue;
+                }
+                ((0.0, 1.0), index, part as u32)
             };
             let (Some(target), Some(frame)) = (
                 statics.items().get(index as usize),
@@ -245,9 +405,12 @@ pub fn solve_body(
             // only inside.
             let interval = (enter, t_max.min(leave));
             // The patch of a contact the last response acted on, at this sweep's start.
-            let known_patch = known.iter().find(|k| k.0 == index).map(|k| k.1);
+            let known_patch = known
+                .iter()
+                .find(|k| k.0 == index && k.1 == part)
+                .map(|k| k.2);
             match pair_toi(
-                body,
+                parts.body(part as usize),
                 sweep_reach,
                 &sweep,
                 body_frame,
@@ -262,7 +425,7 @@ pub fn solve_body(
                     if let Some(contact) = touch
                         && touching.len() < MAX_CONTACTS
                     {
-                        touching.push((index, contact));
+                        touching.push((index, part, contact));
                     }
                 }
                 PairOutcome::Hit {
@@ -272,13 +435,16 @@ pub fn solve_body(
                     touch,
                 } => {
                     result.started_overlapping |= overlapping && first;
-                    if best.is_none_or(|b| fraction < b.0 || (fraction == b.0 && index < b.1)) {
-                        best = Some((fraction, index, contact, touch.is_some()));
+                    let earlier = |b: (f32, u32, u32, Contact, bool)| {
+                        fraction < b.0 || (fraction == b.0 && (index, part) < (b.1, b.2))
+                    };
+                    if best.is_none_or(earlier) {
+                        best = Some((fraction, index, part, contact, touch.is_some()));
                     }
                     if let Some(contact) = touch
                         && touching.len() < MAX_CONTACTS
                     {
-                        touching.push((index, contact));
+                        touching.push((index, part, contact));
                     }
                 }
                 PairOutcome::Failed { fraction, failure } => {
@@ -318,7 +484,7 @@ pub fn solve_body(
                 break;
             }
         }
-        let Some((fraction, index, hit, resting)) = best else {
+        let Some((fraction, index, part, hit, resting)) = best else {
             result.position = sweep.pose_at(1.0).p;
             result.angle = sweep.a1;
             break;
@@ -327,7 +493,7 @@ pub fn solve_body(
         let contacts = if fraction == 0.0 {
             &touching[..]
         } else {
-            &[(index, hit)][..]
+            &[(index, part, hit)][..]
         };
         let center = sweep.center_at(fraction);
         let angle = sweep.angle_at(fraction);
@@ -339,7 +505,7 @@ pub fn solve_body(
         let mut patches: SmallVec<[Response; MAX_CONTACTS]> = SmallVec::new();
         let hits_at = target_separation(slop) - separation_tolerance(slop);
         known.clear();
-        for &(index, contact) in contacts {
+        for &(index, part, contact) in contacts {
             let Contact {
                 point,
                 normal,
@@ -348,6 +514,7 @@ pub fn solve_body(
             } = contact;
             impacts.push(ImpactRecord {
                 target: index,
+                part,
                 fraction: step_fraction,
                 point,
                 normal: -normal,
@@ -359,9 +526,10 @@ pub fn solve_body(
                     q: statics.records()[index as usize].key.rotation,
                 };
                 let contact = (normal, point);
-                contact_patch(&body.proxy, pose, &target.proxy, target_pose, contact, slop)
+                let proxy = &parts.body(part as usize).proxy;
+                contact_patch(proxy, pose, &target.proxy, target_pose, contact, slop)
             });
-            known.push((index, (a, b)));
+            known.push((index, part, (a, b)));
             let push = (hits_at - gap).clamp(0.0, slop) / ((1.0 - step_fraction).max(0.25) * dt);
             patches.push(((a - center, b - center), -normal, push));
         }

@@ -47,7 +47,8 @@ pub use super::level_check::{check_level_against_geometry, check_record_passes};
 /// per-body solve and the plugin's own work. Not a stable API: they change with the solver.
 pub mod solver {
     pub use crate::geometry::body_solver::{
-        BodyOutcome, BodyState, ImpactRecord, SolveSettings, solve_body,
+        BodyOutcome, BodyPart, BodyState, Compound, ImpactRecord, SolveSettings, solve_body,
+        solve_compound_body,
     };
     pub use crate::geometry::static_set::{StaticItem, StaticSet};
 }

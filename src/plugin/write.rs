@@ -5,6 +5,7 @@ use bevy_ecs::prelude::*;
 use bevy_transform::components::Transform;
 use glam::Quat;
 
+use super::compound::Compounds;
 use super::outcome::{CcdError, CcdImpact, CcdOutcome, Hits};
 use super::workspace::{BodyEntry, HAS_VELOCITY, Lane, NUDGED, OVERLAPPING};
 use super::{StaticCollider, StepPoses, Velocity};
@@ -44,6 +45,7 @@ pub(crate) fn write_lane(
     lane: &Lane,
     bodies: &mut WriteQuery,
     static_entities: &[Entity],
+    compounds: &Compounds,
 ) {
     let target = |index: u32| static_entities[index as usize];
     for &index in &lane.visit {
@@ -93,6 +95,7 @@ pub(crate) fn write_lane(
             Hits {
                 first: CcdImpact {
                     body: body.entity,
+                    body_collider: compounds.collider(body, i.part),
                     target: target(i.target),
                     fraction: i.fraction,
                     point: i.point,
