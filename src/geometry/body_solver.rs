@@ -789,6 +789,212 @@ mod tests {
         }
     }
 
+    /// A part of `shape` placed at `offset` in the body frame (core circle at its centre).
+    fn part(shape: Shape, offset: Vec2) -> BodyPart {
+        let proxy = shape.proxy();
+        let points: Vec<Vec2> = proxy.points().iter().map(|p| *p + offset).collect();
+        BodyPart {
+            proxy: ShapeProxy::from_parts(&points, proxy.radius),
+            core_center: shape.mass_properties(1.0).center + offset,
+            core_radius: 0.25 * proxy.inner_radius(Vec2::ZERO),
+        }
+    }
+
+    /// Solves `parts` as one body (every pair allowed), returning the outcome and its impacts.
+    fn solve_parts(
+        body: &BodyState,
+        parts: &[BodyPart],
+        statics: &StaticSet,
+        mode: Resolution,
+    ) -> (BodyOutcome, Vec<ImpactRecord>) {
+        let candidates: Vec<u32> = (0..statics.items().len() as u32).collect();
+        let settings = SolveSettings {
+            mode,
+            linear_slop: crate::geometry::LINEAR_SLOP,
+            dt: 1.0 / 60.0,
+        };
+        let mut impacts = Vec::new();
+        let compound = Compound {
+            parts,
+            interacts: |_: usize, _: u32| true,
+        };
+        let out = solve_compound_body(
+            body,
+            compound,
+            statics,
+            &candidates,
+            &settings,
+            &mut Vec::new(),
+            &mut impacts,
+        );
+        (out, impacts)
+    }
+
+    /// A wall whose face is the plane x = `x`, 20 m tall.
+    fn wall(x: f32) -> StaticItem {
+        StaticItem {
+            proxy: Shape::from(Polygon::rectangle(0.005, 10.0).unwrap()).proxy(),
+            position: Vec2::new(x + 0.005, 0.0),
+            angle: 0.0,
+        }
+    }
+
+    /// A disc above and a rod below the centre of mass, thrown spinning at a wall: the body
+    /// hits at the earlier of the times each part alone would, with that part's index. Each
+    /// part alone is the same body (same sweep, centre of mass and reach bound) with one part,
+    /// so the times agree within the time of impact's tolerance band.
+    #[test]
+    fn a_two_part_body_hits_at_the_earlier_of_its_parts() {
+        let mut statics = StaticSet::default();
+        statics.rebuild([wall(2.0)]);
+        let parts = [
+            part(Shape::from(Circle::new(0.2).unwrap()), Vec2::new(0.1, 0.6)),
+            part(
+                Shape::from(Polygon::rectangle(0.5, 0.01).unwrap()),
+                Vec2::new(0.0, -0.4),
+            ),
+        ];
+        let mode = Resolution::Clamp;
+        let mut winners = [0u32; 2];
+        for spin in [-40.0f32, -7.0, 0.0, 7.0, 40.0] {
+            for speed in [5.0f32, 90.0, 500.0] {
+                let v = Vec2::new(speed, 0.0);
+                // Start far enough that the step's motion reaches the wall from 1 m out.
+                let start = Vec2::new(2.0 - 1.0 - speed / 60.0 * 0.5, 0.0);
+                let body = moving(parts[0].proxy, start, 0.3, v, spin);
+                let (out, impacts) = solve_parts(&body, &parts, &statics, mode);
+                let alone: Vec<Option<f32>> = parts
+                    .iter()
+                    .map(|p| {
+                        let (_, hits) = solve_parts(&body, core::slice::from_ref(p), &statics, mode);
+                        hits.first().map(|h| h.fraction)
+                    })
+                    .collect();
+                let earliest = alone
+                    .iter()
+                    .enumerate()
+                    .filter_map(|(k, f)| f.map(|f| (f, k as u32)))
+                    .fold(None, |b: Option<(f32, u32)>, x| match b {
+                        Some(b) if b.0 <= x.0 => Some(b),
+                        _ => Some(x),
+                    });
+                let case = format!("speed {speed}, spin {spin}: {alone:?} vs {impacts:?}");
+                let Some((fraction, winner)) = earliest else {
+                    assert!(impacts.is_empty(), "{case}");
+                    continue;
+                };
+                let first = impacts.first().unwrap_or_else(|| panic!("no hit: {case}"));
+                // The band is `separation_tolerance` (slop / 4) wide on each side of the
+                // target separation: as a fraction of the step, that over the slowest speed
+                // at which a point of the part approaches (the body's, 5 m/s over 1/60 s).
+                let band = 2.0 * separation_tolerance(crate::geometry::LINEAR_SLOP) / (5.0 / 60.0);
+                assert!((first.fraction - fraction).abs() <= band, "{case}");
+                assert_eq!(first.part, winner, "{case}");
+                winners[winner as usize] += 1;
+                // The body stops short of the wall, whichever part hit.
+                let end = Pose::new(out.position, out.angle);
+                for p in &parts {
+                    assert!(gap(&p.proxy, end, &statics.items()[0]) > 0.0, "{case}");
+                }
+            }
+        }
+        // Both parts win some of the cases: the test tells them apart.
+        assert!(winners[0] > 0 && winners[1] > 0, "{winners:?}");
+    }
+
+    /// One part is the one-collider body: the compound solve gives the same bits.
+    #[test]
+    fn a_one_part_compound_is_the_plain_body() {
+        let mut statics = StaticSet::default();
+        statics.rebuild([wall(2.0)]);
+        let shape = Shape::from(Polygon::rectangle(0.3, 0.1).unwrap());
+        let mut body = moving(shape.proxy(), Vec2::new(1.0, 0.2), 0.5, Vec2::new(200.0, 30.0), 25.0);
+        body.core_radius = 0.025;
+        let one = BodyPart {
+            proxy: body.proxy,
+            core_center: body.local_center,
+            core_radius: body.core_radius,
+        };
+        for mode in [Resolution::Clamp, Resolution::SubStep { max_substeps: 4 }] {
+            let mut impacts = Vec::new();
+            let candidates = [0];
+            let settings = SolveSettings {
+                mode,
+                linear_slop: crate::geometry::LINEAR_SLOP,
+                dt: 1.0 / 60.0,
+            };
+            let out = solve_body(&body, &statics, &candidates, &settings, &mut Vec::new(), &mut impacts);
+            let (compound, compound_impacts) = solve_parts(&body, &[one], &statics, mode);
+            assert!(out.impacts > 0, "{mode:?}: the case must hit");
+            assert_eq!(out, compound, "{mode:?}");
+            assert_eq!(impacts, compound_impacts, "{mode:?}");
+        }
+    }
+
+    /// Equal times: the lower target wins, then the lower part. Two discs at `y = ±0.5` fly at
+    /// two posts at the same x, each part straight at one post: part 0 (above) at target 1,
+    /// part 1 (below) at target 0, at the same fraction (mirror images, the same bits). Then
+    /// two copies of one disc at one post: part 0.
+    #[test]
+    fn ties_go_to_the_lower_target_then_the_lower_part() {
+        let post = |y: f32| StaticItem {
+            proxy: Shape::from(Polygon::rectangle(0.1, 0.1).unwrap()).proxy(),
+            position: Vec2::new(2.1, y),
+            angle: 0.0,
+        };
+        let mut statics = StaticSet::default();
+        statics.rebuild([post(-0.5), post(0.5)]);
+        let disc = Shape::from(Circle::new(0.2).unwrap());
+        let above = part(disc, Vec2::new(0.0, 0.5));
+        let below = part(disc, Vec2::new(0.0, -0.5));
+        let body = moving(above.proxy, Vec2::new(0.5, 0.0), 0.0, Vec2::new(200.0, 0.0), 0.0);
+        let mode = Resolution::Clamp;
+        let alone = |p: BodyPart| solve_parts(&body, &[p], &statics, mode).1[0];
+        let (a, b) = (alone(above), alone(below));
+        // The precondition of a tie: the same fraction, each part at its own post.
+        assert_eq!((a.fraction, a.target, b.target), (b.fraction, 1, 0));
+        let (_, impacts) = solve_parts(&body, &[above, below], &statics, mode);
+        assert_eq!((impacts[0].target, impacts[0].part), (0, 1), "{impacts:?}");
+        // Two copies of one part against one post: the lower part.
+        let (_, impacts) = solve_parts(&body, &[above, above], &statics, mode);
+        assert_eq!((impacts[0].target, impacts[0].part), (1, 0), "{impacts:?}");
+    }
+
+    /// A part that may not hit the wall passes it; the other stops the body.
+    #[test]
+    fn a_part_filtered_out_of_a_target_does_not_hit_it() {
+        let mut statics = StaticSet::default();
+        statics.rebuild([wall(2.0)]);
+        let disc = Shape::from(Circle::new(0.2).unwrap());
+        // The part ahead (x + 0.5) would hit first; it may not.
+        let parts = [part(disc, Vec2::new(0.5, 0.0)), part(disc, Vec2::new(-0.5, 0.0))];
+        let body = moving(parts[0].proxy, Vec2::new(0.5, 0.0), 0.0, Vec2::new(200.0, 0.0), 0.0);
+        let candidates = [0];
+        let settings = SolveSettings {
+            mode: Resolution::Clamp,
+            linear_slop: crate::geometry::LINEAR_SLOP,
+            dt: 1.0 / 60.0,
+        };
+        let mut impacts = Vec::new();
+        let compound = Compound {
+            parts: &parts,
+            interacts: |part: usize, _: u32| part != 0,
+        };
+        let out = solve_compound_body(
+            &body,
+            compound,
+            &statics,
+            &candidates,
+            &settings,
+            &mut Vec::new(),
+            &mut impacts,
+        );
+        assert_eq!(impacts.len(), 1, "{impacts:?}");
+        assert_eq!(impacts[0].part, 1);
+        // The rear disc stops at the wall (within the slop); the front one is through it.
+        assert!((out.position.x - 0.5 + 0.2 - 2.0).abs() < 2.0 * crate::geometry::LINEAR_SLOP, "{out:?}");
+    }
+
     #[test]
     fn a_response_that_overflows_fails_the_body_at_its_impact() {
         // A box landing on a corner at 3e38 m/s, its inertia small against its mass: the

@@ -243,6 +243,59 @@ pub(crate) fn update_compounds(
     }
 }
 
+/// Every collider of every CCD body, read from the hierarchy as it is now (not from the
+/// plugin's lists): (body, collider entity, the body's pose, the collider's shape in the body
+/// frame, its layers). For the containment checks of [`testing`](super::testing).
+#[cfg(any(test, feature = "testing"))]
+pub(crate) fn body_colliders(
+    world: &mut World,
+) -> Vec<(Entity, Entity, Pose, ShapeProxy, CollisionLayers)> {
+    use bevy_ecs::system::RunSystemOnce;
+    use bevy_transform::components::Transform;
+    type Own<'w, 's> = Query<
+        'w,
+        's,
+        (Entity, &'static Collider, &'static Transform),
+        (With<CcdEnabled>, Without<StaticCollider>),
+    >;
+    let read = |own: Own,
+                parts: PartQuery,
+                kinds: KindQuery,
+                ancestry: Ancestry,
+                transforms: Query<&Transform>,
+                layers: Query<&CollisionLayers>| {
+        let pose = |transform: &Transform| {
+            let (p, angle) = super::components::planar_pose(transform);
+            Pose::new(p, angle)
+        };
+        let layers_of = |e: Entity| layers.get(e).copied().ok();
+        let mut out: Vec<_> = own
+            .iter()
+            .map(|(body, collider, transform)| {
+                let layers = layers_of(body).unwrap_or_default();
+                (body, body, pose(transform), *collider.proxy(), layers)
+            })
+            .collect();
+        for (part, collider) in &parts {
+            let Some(body) = owner(part, &ancestry, &kinds) else {
+                continue;
+            };
+            let (Ok(local), Ok(transform)) = (
+                pose_in(part, Some(body), &ancestry),
+                transforms.get(body),
+            ) else {
+                continue;
+            };
+            let layers = layers_of(part).or(layers_of(body)).unwrap_or_default();
+            let shape = placed(collider, local).0.proxy;
+            out.push((body, part, pose(transform), shape, layers));
+        }
+        out.sort_by_key(|item| (item.0, item.1));
+        out
+    };
+    world.run_system_once(read).unwrap_or_default()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
