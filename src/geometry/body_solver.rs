@@ -325,6 +325,15 @@ fn solve(
             parts_reach(parts, sweep.local_center)
         };
         let body_frame = BodyFrame::with_reach(&sweep, sweep_reach);
+        // A part's own reach about the sweep's centre of mass: the bounds of its pairs are
+        // those of its own points, tighter than the whole body's.
+        let part_reach = |part: usize| {
+            if n == 1 {
+                sweep_reach
+            } else {
+                parts.body(part).proxy.max_distance_from(sweep.local_center)
+            }
+        };
         // Visit the targets in the order the body can first reach them (branch and bound):
         // once that is later than the earliest hit so far, no target left can change the
         // answer. Targets the body never reaches drop out here. Short lists (nearly all) are
@@ -347,7 +356,8 @@ fn solve(
                         continue;
                     }
                     let proxy = &parts.body(part).proxy;
-                    if let Some(window) = reach_interval(sweep_reach, proxy, &sweep, key, slop) {
+                    let reach = part_reach(part);
+                    if let Some(window) = reach_interval(reach, proxy, &sweep, key, slop) {
                         // Insertion by fraction after the pairs in (target, part) order:
                         // deterministic, ties in that order.
                         let mut k = ordered;
@@ -409,11 +419,17 @@ fn solve(
                 .iter()
                 .find(|k| k.0 == index && k.1 == part)
                 .map(|k| k.2);
+            let (reach, frame_of_part) = if n == 1 {
+                (sweep_reach, body_frame)
+            } else {
+                let reach = part_reach(part as usize);
+                (reach, BodyFrame::with_reach(&sweep, reach))
+            };
             match pair_toi(
                 parts.body(part as usize),
-                sweep_reach,
+                reach,
                 &sweep,
-                body_frame,
+                frame_of_part,
                 target,
                 &frame,
                 slop,
@@ -1047,5 +1063,48 @@ mod tests {
         // Clamped at the impact, short of the floor.
         assert!(out.position.is_finite() && out.position.y > 0.5 && out.angle == 0.3);
         assert_eq!(out.velocity, body.velocity);
+    }
+
+    /// A thin rod (1 cm) whose centre of mass is off its shape (as a part of a compound body,
+    /// or a `Collider::with_offset`), resting on the floor and turning slowly: the sweep after
+    /// the contact's response fails with `RootFinder` (nothing could be certified), step after
+    /// step, so the body stays where it is. The same for `solve_body` and a compound body:
+    /// found by the arena with compound bodies. Ignored until the time of impact handles it.
+    #[test]
+    #[ignore = "known failure of the time of impact, not of the compound solve"]
+    fn an_off_centre_thin_rod_resting_on_the_floor_is_not_a_failure() {
+        let v = Vec2::new;
+        let rod = [
+            v(0.258614, -0.21415378),
+            v(0.0690487, 0.2181695),
+            v(0.059890434, 0.21415378),
+            v(0.24945575, -0.2181695),
+        ];
+        let local_center = v(0.09509212, 0.0);
+        let body = BodyState {
+            proxy: ShapeProxy::from_parts(&rod, 0.0),
+            local_center,
+            mass: 0.007905621,
+            inertia: 0.00016288512,
+            restitution: 0.0036303997,
+            friction: 0.48673043,
+            sweep: Sweep {
+                local_center,
+                c0: v(-18.379997, -24.78403),
+                c1: v(-18.420935, -24.787048),
+                a0: 2.7281969,
+                a1: 2.7424622,
+            },
+            velocity: Some((v(-2.4240878, -0.10633657), 0.85592186)),
+            core_radius: 0.00125,
+        };
+        let mut statics = StaticSet::default();
+        statics.rebuild([StaticItem {
+            proxy: Shape::from(Polygon::rectangle(25.01, 0.005).unwrap()).proxy(),
+            position: v(0.0, -25.005),
+            angle: 0.0,
+        }]);
+        let out = solve(&body, &statics, Resolution::Clamp);
+        assert_eq!(out.failure, None, "{out:?}");
     }
 }
