@@ -141,7 +141,10 @@ fn arena_compound_bodies_stay_inside() {
             s.impacts, s.worst_penetration, s.failed, s.frozen
         );
         assert_eq!(s.escaped_at_end, 0);
-        assert!(s.impacts > 1000, "{resolution:?}: the arena must make bodies hit walls");
+        assert!(
+            s.impacts > 1000,
+            "{resolution:?}: the arena must make bodies hit walls"
+        );
     }
 }
 

@@ -26,7 +26,8 @@ const DISC: f32 = 0.1;
 
 /// A child collider of `body` at `at`, turned by `angle`.
 fn spawn_part(app: &mut App, body: Entity, collider: Collider, at: Vec2, angle: f32) -> Entity {
-    let transform = Transform::from_xyz(at.x, at.y, 0.0).with_rotation(Quat::from_rotation_z(angle));
+    let transform =
+        Transform::from_xyz(at.x, at.y, 0.0).with_rotation(Quat::from_rotation_z(angle));
     app.world_mut()
         .spawn((collider, transform, ChildOf(body)))
         .id()
@@ -34,7 +35,8 @@ fn spawn_part(app: &mut App, body: Entity, collider: Collider, at: Vec2, angle: 
 
 /// A body without a collider of its own at `at`, turned by `angle`, moving at `(v, w)`.
 fn spawn_body(app: &mut App, at: Vec2, angle: f32, v: Vec2, w: f32) -> Entity {
-    let transform = Transform::from_xyz(at.x, at.y, 0.0).with_rotation(Quat::from_rotation_z(angle));
+    let transform =
+        Transform::from_xyz(at.x, at.y, 0.0).with_rotation(Quat::from_rotation_z(angle));
     app.world_mut()
         .spawn((
             CcdEnabled::default(),
@@ -97,7 +99,10 @@ fn a_dumbbell_never_passes_a_wall_and_names_the_part_that_hit() {
                     for &part in &parts {
                         // Never past the face by more than the slop (the band of the hits).
                         let edge = right_edge(&app, body, part);
-                        assert!(edge <= face + SLOP, "{what}, step {s}: a part at x = {edge}");
+                        assert!(
+                            edge <= face + SLOP,
+                            "{what}, step {s}: a part at x = {edge}"
+                        );
                     }
                     let (depth, pair) = deepest_penetration(app.world_mut());
                     assert!(depth <= SLOP, "{what}, step {s}: {pair:?} {depth} m deep");
@@ -163,8 +168,18 @@ fn the_rod_alone_hitting_a_corner_is_caught() {
             let what = format!("{resolution:?}, broadside {broadside}");
             let mut app = app_with(resolution, Vec2::ZERO, true);
             spawn_diamond(&mut app, corner);
-            let angle = if broadside { core::f32::consts::FRAC_PI_2 } else { 0.0 };
-            let body = spawn_body(&mut app, Vec2::new(0.0, 0.0), angle, Vec2::new(500.0, 0.0), 0.0);
+            let angle = if broadside {
+                core::f32::consts::FRAC_PI_2
+            } else {
+                0.0
+            };
+            let body = spawn_body(
+                &mut app,
+                Vec2::new(0.0, 0.0),
+                angle,
+                Vec2::new(500.0, 0.0),
+                0.0,
+            );
             let disc = Collider::circle(DISC).expect("valid disc");
             let rod = spawn_part(
                 &mut app,
@@ -178,7 +193,13 @@ fn the_rod_alone_hitting_a_corner_is_caught() {
                 parts.push(spawn_part(&mut app, body, disc, Vec2::new(-ARM, 0.0), 0.0));
                 parts.push(spawn_part(&mut app, body, disc, Vec2::new(ARM, 0.0), 0.0));
             } else {
-                parts.push(spawn_part(&mut app, body, disc, Vec2::new(-ARM - DISC, 0.0), 0.0));
+                parts.push(spawn_part(
+                    &mut app,
+                    body,
+                    disc,
+                    Vec2::new(-ARM - DISC, 0.0),
+                    0.0,
+                ));
             }
             step(&mut app);
             let hit = toi(&app, body).first_hit().copied();
@@ -257,7 +278,13 @@ fn parts_added_or_removed_between_steps_count_from_the_next_step() {
     // The face at x = 1.1.
     spawn_wall(&mut app, Vec2::new(1.105, 0.0), 0.005, 2.0);
     let body = spawn_body(&mut app, Vec2::ZERO, 0.0, Vec2::ZERO, 0.0);
-    spawn_part(&mut app, body, Collider::circle(DISC).expect("disc"), Vec2::ZERO, 0.0);
+    spawn_part(
+        &mut app,
+        body,
+        Collider::circle(DISC).expect("disc"),
+        Vec2::ZERO,
+        0.0,
+    );
     let elsewhere = app.world_mut().spawn(Transform::default()).id();
     let rod = || Collider::rectangle(0.3, 0.005).expect("rod");
     let relaunch = |app: &mut App| {
@@ -267,7 +294,14 @@ fn parts_added_or_removed_between_steps_count_from_the_next_step() {
     };
     // The body moves from 0 to 0.5: its disc reaches 0.6, the rod (0.2 to 0.8 ahead) 1.3.
     let mut current = None;
-    for change in ["none", "add", "despawn", "reparent in", "reparent out", "add"] {
+    for change in [
+        "none",
+        "add",
+        "despawn",
+        "reparent in",
+        "reparent out",
+        "add",
+    ] {
         match change {
             "add" => current = Some(spawn_part(&mut app, body, rod(), Vec2::new(0.5, 0.0), 0.0)),
             "despawn" => {
@@ -278,7 +312,10 @@ fn parts_added_or_removed_between_steps_count_from_the_next_step() {
                 // Stepped once under `elsewhere` (not a body): not a part.
                 relaunch(&mut app);
                 step(&mut app);
-                assert!(toi(&app, body).first_hit().is_none(), "{change}: not yet a part");
+                assert!(
+                    toi(&app, body).first_hit().is_none(),
+                    "{change}: not yet a part"
+                );
                 app.world_mut().entity_mut(id).insert(ChildOf(body));
                 current = Some(id);
             }
@@ -293,11 +330,16 @@ fn parts_added_or_removed_between_steps_count_from_the_next_step() {
         let outcome = toi(&app, body);
         match current {
             Some(rod) => {
-                let hit = outcome.first_hit().unwrap_or_else(|| panic!("{change}: {outcome:?}"));
+                let hit = outcome
+                    .first_hit()
+                    .unwrap_or_else(|| panic!("{change}: {outcome:?}"));
                 assert_eq!(hit.body_collider, rod, "{change}");
                 // Stopped with the rod's tip the slop (within the band) from the face.
                 let x = position(&app, body).x;
-                assert!((1.1 - (x + 0.8) - SLOP).abs() <= TOL + ROUND, "{change}: x = {x}");
+                assert!(
+                    (1.1 - (x + 0.8) - SLOP).abs() <= TOL + ROUND,
+                    "{change}: x = {x}"
+                );
             }
             None => {
                 assert!(outcome.first_hit().is_none(), "{change}: {outcome:?}");
@@ -315,7 +357,13 @@ fn a_bodys_own_collider_is_one_of_its_parts() {
     spawn_wall(&mut app, Vec2::new(2.005, 0.0), 0.005, 2.0);
     let body = spawn_ball(&mut app, DISC, Vec2::ZERO, Vec2::new(200.0, 0.0), ());
     // A disc behind the body's own: the body's own leads.
-    spawn_part(&mut app, body, Collider::circle(DISC).expect("disc"), Vec2::new(-0.5, 0.0), 0.0);
+    spawn_part(
+        &mut app,
+        body,
+        Collider::circle(DISC).expect("disc"),
+        Vec2::new(-0.5, 0.0),
+        0.0,
+    );
     step(&mut app);
     let hit = toi(&app, body).first_hit().copied().expect("a hit");
     assert_eq!(hit.body_collider, body);
@@ -348,7 +396,13 @@ fn compound_arena_is_identical_on_one_thread_and_two() {
             app.step_fixed(1);
             assert_contained(app.world_mut(), arena.interior, &format!("step {s}"));
         }
-        let messages: Vec<CcdImpact> = app.world().resource::<Log>().impacts.iter().map(|m| m.1).collect();
+        let messages: Vec<CcdImpact> = app
+            .world()
+            .resource::<Log>()
+            .impacts
+            .iter()
+            .map(|m| m.1)
+            .collect();
         let outcomes: Vec<CcdOutcome> = arena.bodies.iter().map(|e| toi(&app, *e)).collect();
         (poses(&app, &arena.bodies), outcomes, messages)
     };

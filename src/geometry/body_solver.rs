@@ -114,6 +114,9 @@ pub struct BodyOutcome {
 /// can first reach them (a swept box rarely holds more than a handful).
 const ORDERED_TARGETS: usize = 32;
 
+/// The patch (world ends) of a contact a response acted on, by (target, part).
+type KnownPatch = (u32, u32, (Vec2, Vec2));
+
 /// One collider of a compound body: its shape in the body frame (the body's own collider, or
 /// a child's placed and scaled into the body frame).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -130,7 +133,7 @@ pub struct BodyPart {
 /// The colliders of a compound body, and which (part, target) pairs may hit each other.
 #[derive(Clone, Copy, Debug)]
 pub struct Compound<'a, F> {
-    /// The parts, at least one; more than [`MAX_PARTS`] are ignored past it.
+    /// The parts, at least one; those past the first `MAX_PARTS` (16) are ignored.
     pub parts: &'a [BodyPart],
     /// Whether part `part` (an index into `parts`) may hit target `target` (collision layers).
     pub interacts: F,
@@ -302,7 +305,7 @@ fn solve(
     // The patches (world ends) of the contacts the last response acted on: the next sweep
     // starts at that pose, so its pair tests need not find them again, and decide on the very
     // points the response used.
-    let mut known: SmallVec<[(u32, u32, (Vec2, Vec2)); MAX_CONTACTS]> = SmallVec::new();
+    let mut known: SmallVec<[KnownPatch; MAX_CONTACTS]> = SmallVec::new();
     let mut first = true;
     loop {
         let list: &[u32] = if first {
@@ -882,7 +885,8 @@ mod tests {
                 let alone: Vec<Option<f32>> = parts
                     .iter()
                     .map(|p| {
-                        let (_, hits) = solve_parts(&body, core::slice::from_ref(p), &statics, mode);
+                        let (_, hits) =
+                            solve_parts(&body, core::slice::from_ref(p), &statics, mode);
                         hits.first().map(|h| h.fraction)
                     })
                     .collect();
@@ -924,7 +928,13 @@ mod tests {
         let mut statics = StaticSet::default();
         statics.rebuild([wall(2.0)]);
         let shape = Shape::from(Polygon::rectangle(0.3, 0.1).unwrap());
-        let mut body = moving(shape.proxy(), Vec2::new(1.0, 0.2), 0.5, Vec2::new(200.0, 30.0), 25.0);
+        let mut body = moving(
+            shape.proxy(),
+            Vec2::new(1.0, 0.2),
+            0.5,
+            Vec2::new(200.0, 30.0),
+            25.0,
+        );
         body.core_radius = 0.025;
         let one = BodyPart {
             proxy: body.proxy,
@@ -939,7 +949,14 @@ mod tests {
                 linear_slop: crate::geometry::LINEAR_SLOP,
                 dt: 1.0 / 60.0,
             };
-            let out = solve_body(&body, &statics, &candidates, &settings, &mut Vec::new(), &mut impacts);
+            let out = solve_body(
+                &body,
+                &statics,
+                &candidates,
+                &settings,
+                &mut Vec::new(),
+                &mut impacts,
+            );
             let (compound, compound_impacts) = solve_parts(&body, &[one], &statics, mode);
             assert!(out.impacts > 0, "{mode:?}: the case must hit");
             assert_eq!(out, compound, "{mode:?}");
@@ -963,7 +980,13 @@ mod tests {
         let disc = Shape::from(Circle::new(0.2).unwrap());
         let above = part(disc, Vec2::new(0.0, 0.5));
         let below = part(disc, Vec2::new(0.0, -0.5));
-        let body = moving(above.proxy, Vec2::new(0.5, 0.0), 0.0, Vec2::new(200.0, 0.0), 0.0);
+        let body = moving(
+            above.proxy,
+            Vec2::new(0.5, 0.0),
+            0.0,
+            Vec2::new(200.0, 0.0),
+            0.0,
+        );
         let mode = Resolution::Clamp;
         let alone = |p: BodyPart| solve_parts(&body, &[p], &statics, mode).1[0];
         let (a, b) = (alone(above), alone(below));
@@ -983,8 +1006,17 @@ mod tests {
         statics.rebuild([wall(2.0)]);
         let disc = Shape::from(Circle::new(0.2).unwrap());
         // The part ahead (x + 0.5) would hit first; it may not.
-        let parts = [part(disc, Vec2::new(0.5, 0.0)), part(disc, Vec2::new(-0.5, 0.0))];
-        let body = moving(parts[0].proxy, Vec2::new(0.5, 0.0), 0.0, Vec2::new(200.0, 0.0), 0.0);
+        let parts = [
+            part(disc, Vec2::new(0.5, 0.0)),
+            part(disc, Vec2::new(-0.5, 0.0)),
+        ];
+        let body = moving(
+            parts[0].proxy,
+            Vec2::new(0.5, 0.0),
+            0.0,
+            Vec2::new(200.0, 0.0),
+            0.0,
+        );
         let candidates = [0];
         let settings = SolveSettings {
             mode: Resolution::Clamp,
@@ -1008,7 +1040,10 @@ mod tests {
         assert_eq!(impacts.len(), 1, "{impacts:?}");
         assert_eq!(impacts[0].part, 1);
         // The rear disc stops at the wall (within the slop); the front one is through it.
-        assert!((out.position.x - 0.5 + 0.2 - 2.0).abs() < 2.0 * crate::geometry::LINEAR_SLOP, "{out:?}");
+        assert!(
+            (out.position.x - 0.5 + 0.2 - 2.0).abs() < 2.0 * crate::geometry::LINEAR_SLOP,
+            "{out:?}"
+        );
     }
 
     #[test]

@@ -39,10 +39,13 @@ pub(crate) struct Compounds {
     shapes: Vec<BodyPart>,
     entities: Vec<Entity>,
     layers: Vec<CollisionLayers>,
-    /// The parts found this step, before they are grouped by body: (body, part, its shape, its
-    /// unit mass in the body frame, its layers if its own), or the error of reading its pose.
-    found: Vec<(Entity, Entity, Result<(BodyPart, MassProperties), CcdError>)>,
+    /// The parts found this step, before they are grouped by body (kept to reuse its memory).
+    found: Vec<Found>,
 }
+
+/// A part found by [`update_compounds`]: its body, its entity, and its shape and unit mass in
+/// the body frame or the error of reading its pose.
+type Found = (Entity, Entity, Result<(BodyPart, MassProperties), CcdError>);
 
 impl Compounds {
     /// Whether no body has child colliders.
@@ -280,10 +283,9 @@ pub(crate) fn body_colliders(
             let Some(body) = owner(part, &ancestry, &kinds) else {
                 continue;
             };
-            let (Ok(local), Ok(transform)) = (
-                pose_in(part, Some(body), &ancestry),
-                transforms.get(body),
-            ) else {
+            let (Ok(local), Ok(transform)) =
+                (pose_in(part, Some(body), &ancestry), transforms.get(body))
+            else {
                 continue;
             };
             let layers = layers_of(part).or(layers_of(body)).unwrap_or_default();
@@ -315,11 +317,17 @@ mod tests {
         let both = [placed(&disc, at(-d)).1, placed(&disc, at(d)).1];
         let m = combined_mass(both.iter().copied());
         let pi = core::f32::consts::PI;
-        let (mass, inertia) = (2.0 * pi * r * r, 2.0 * (pi * r * r * r * r / 2.0 + pi * r * r * d * d));
+        let (mass, inertia) = (
+            2.0 * pi * r * r,
+            2.0 * (pi * r * r * r * r / 2.0 + pi * r * r * d * d),
+        );
         // A few f32 roundings of values near 1: relative 1e-6.
         assert!((m.mass - mass).abs() <= 1e-6 * mass, "{m:?}");
         assert!(m.center.length() <= 1e-6, "{m:?}");
-        assert!((m.inertia - inertia).abs() <= 1e-6 * inertia, "{m:?} vs {inertia}");
+        assert!(
+            (m.inertia - inertia).abs() <= 1e-6 * inertia,
+            "{m:?} vs {inertia}"
+        );
     }
 
     /// A box `2a × 2b` placed at scale `s`, off centre, beside a disc: against the analytic
@@ -357,7 +365,13 @@ mod tests {
         // A few f32 roundings of values near 1: relative 1e-6 (the inertia sums terms of
         // one sign, so its rounding stays relative too).
         assert!((m.mass - mass).abs() <= 1e-6 * mass, "{m:?}");
-        assert!((m.center - center).length() <= 1e-6 * center.length(), "{m:?}");
-        assert!((m.inertia - inertia).abs() <= 2e-6 * inertia, "{m:?} vs {inertia}");
+        assert!(
+            (m.center - center).length() <= 1e-6 * center.length(),
+            "{m:?}"
+        );
+        assert!(
+            (m.inertia - inertia).abs() <= 2e-6 * inertia,
+            "{m:?} vs {inertia}"
+        );
     }
 }

@@ -55,8 +55,7 @@ pub(crate) fn solve(
     time: Option<Res<Time<Fixed>>>,
     mut workspace: ResMut<CcdWorkspace>,
     mut diagnostics: ResMut<CcdDiagnostics>,
-    ticks: SystemChangeTick,
-    compounds: Res<Compounds>,
+    (ticks, compounds): (SystemChangeTick, Res<Compounds>),
     mut queries: ParamSet<(ListQuery, WriteQuery)>,
     colliders: Query<&Collider, Without<StaticCollider>>,
 ) {

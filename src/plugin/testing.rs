@@ -183,7 +183,7 @@ pub fn assert_contained(world: &mut World, interior: Aabb, what: &str) -> f32 {
 }
 
 /// The CCD bodies (entities with [`CcdEnabled`], statics excluded) one of whose colliders (its
-/// own [`Collider`] or a compound body's child colliders) is not entirely inside `bounds`, or
+/// own [`Collider`](super::Collider) or a compound body's child colliders) is not entirely inside `bounds`, or
 /// whose pose is not finite.
 pub fn bodies_outside(world: &mut World, bounds: Aabb) -> Vec<Entity> {
     let mut out: Vec<Entity> = super::compound::body_colliders(world)
