@@ -349,25 +349,24 @@ fn parts_added_or_removed_between_steps_count_from_the_next_step() {
     }
 }
 
-/// A body with child colliders and a collider of its own: its own is part of it, named by the
-/// body's entity.
+/// A body with child colliders and a collider of its own: its own is one of its parts, named
+/// by the body's entity; a child disc leading it hits first and is named.
 #[test]
 fn a_bodys_own_collider_is_one_of_its_parts() {
-    let mut app = app_with(Resolution::Clamp, Vec2::ZERO, true);
-    spawn_wall(&mut app, Vec2::new(2.005, 0.0), 0.005, 2.0);
-    let body = spawn_ball(&mut app, DISC, Vec2::ZERO, Vec2::new(200.0, 0.0), ());
-    // A disc behind the body's own: the body's own leads.
-    spawn_part(
-        &mut app,
-        body,
-        Collider::circle(DISC).expect("disc"),
-        Vec2::new(-0.5, 0.0),
-        0.0,
-    );
-    step(&mut app);
-    let hit = toi(&app, body).first_hit().copied().expect("a hit");
-    assert_eq!(hit.body_collider, body);
-    assert!(position(&app, body).x + DISC <= 2.0);
+    for (child_x, child_leads) in [(-0.5f32, false), (0.5, true)] {
+        let mut app = app_with(Resolution::Clamp, Vec2::ZERO, true);
+        spawn_wall(&mut app, Vec2::new(2.005, 0.0), 0.005, 2.0);
+        let body = spawn_ball(&mut app, DISC, Vec2::ZERO, Vec2::new(200.0, 0.0), ());
+        let disc = Collider::circle(DISC).expect("disc");
+        let child = spawn_part(&mut app, body, disc, Vec2::new(child_x, 0.0), 0.0);
+        step(&mut app);
+        let hit = toi(&app, body).first_hit().copied().expect("a hit");
+        let leading = if child_leads { child } else { body };
+        assert_eq!(hit.body_collider, leading, "child at {child_x}");
+        // Stopped with the leading disc short of the wall.
+        let front = position(&app, body).x + child_x.max(0.0) + DISC;
+        assert!(front <= 2.0, "child at {child_x}: front at {front}");
+    }
 }
 
 /// The arena with compound bodies: the same bits on one thread and on two.
