@@ -22,6 +22,7 @@ use super::cull::reach_interval;
 use super::math::Pose;
 pub use super::pair::BodyState;
 use super::pair::{Contact, PairOutcome, contact_patch, pair_toi};
+use super::proxy::ShapeProxy;
 use super::response::{Response, patch_response};
 use super::static_set::{StaticSet, TargetRecord};
 use super::sweep::Sweep;
@@ -71,6 +72,8 @@ pub struct SolveSettings {
 pub struct ImpactRecord {
     /// Index of the target in the [`StaticSet`].
     pub target: u32,
+    /// Index of the body's part that hit it ([`solve_compound_body`]); 0 for [`solve_body`].
+    pub part: u32,
     /// Fraction of the whole step at which it happened.
     pub fraction: f32,
     /// Contact point (world).
@@ -107,9 +110,121 @@ pub struct BodyOutcome {
     pub nudged: bool,
 }
 
-/// Targets of one sweep that [`solve_body`] orders on the stack by when the body can first
-/// reach them (a swept box rarely holds more than a handful).
+/// (Part, target) pairs of one sweep that [`solve_body`] orders on the stack by when the body
+/// can first reach them (a swept box rarely holds more than a handful).
 const ORDERED_TARGETS: usize = 32;
+
+/// The patch (world ends) of a contact a response acted on, by (target, part).
+type KnownPatch = (u32, u32, (Vec2, Vec2));
+
+/// One collider of a compound body: its shape in the body frame (the body's own collider, or
+/// a child's placed and scaled into the body frame).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BodyPart {
+    /// Shape in the body frame.
+    pub proxy: ShapeProxy,
+    /// Centre of this part's core circle in the body frame (m): its own centre of mass, so
+    /// that the circle lies inside the part ([`BodyState::core_radius`]).
+    pub core_center: Vec2,
+    /// Radius of this part's core circle (m).
+    pub core_radius: f32,
+}
+
+/// The colliders of a compound body, and which (part, target) pairs may hit each other.
+#[derive(Clone, Copy, Debug)]
+pub struct Compound<'a, F> {
+    /// The parts, at least one; those past the first `MAX_PARTS` (16) are ignored.
+    pub parts: &'a [BodyPart],
+    /// Whether part `part` (an index into `parts`) may hit target `target` (collision layers).
+    pub interacts: F,
+}
+
+/// The most parts of one body the solver sweeps: [`Compound::parts`] past it are ignored.
+pub const MAX_PARTS: usize = 16;
+
+/// What the solver asks of a body's colliders: the one-collider body is its own single part,
+/// monomorphised so that its path does exactly what it did before parts existed.
+trait Parts {
+    /// How many parts, at least 1.
+    fn count(&self) -> usize;
+    /// The body as seen through `part`: its shape and core radius, the rest the body's.
+    fn body(&self, part: usize) -> &BodyState;
+    /// Whether `part` may hit `target`.
+    fn interacts(&self, part: usize, target: u32) -> bool;
+}
+
+/// A body that is its own only collider.
+struct Single<'a>(&'a BodyState);
+
+impl Parts for Single<'_> {
+    #[inline(always)]
+    fn count(&self) -> usize {
+        1
+    }
+    #[inline(always)]
+    fn body(&self, _: usize) -> &BodyState {
+        self.0
+    }
+    #[inline(always)]
+    fn interacts(&self, _: usize, _: u32) -> bool {
+        true
+    }
+}
+
+/// A compound body: one [`BodyState`] per part, so that the pair tests run unchanged on each
+/// (the sweep they are given is the body's; a part's `local_center` is its core circle's
+/// centre, which is all the pair tests read it for).
+struct Many<F> {
+    states: SmallVec<[BodyState; 4]>,
+    interacts: F,
+}
+
+impl<F: Fn(usize, u32) -> bool> Parts for Many<F> {
+    fn count(&self) -> usize {
+        self.states.len()
+    }
+    fn body(&self, part: usize) -> &BodyState {
+        &self.states[part]
+    }
+    fn interacts(&self, part: usize, target: u32) -> bool {
+        (self.interacts)(part, target)
+    }
+}
+
+/// [`solve_body`] for a body made of several colliders moving as one rigid body: each part is
+/// swept with the body's motion, the earliest hit over every (part, target) pair wins (ties to
+/// the lower target, then the lower part), and the response acts at the hitting part's contact
+/// with the body's mass and inertia (`body`'s, the combined ones). `body.proxy` and
+/// `body.core_radius` are not used: the parts replace them (without parts, the body's own
+/// shape is its only part, as in [`solve_body`]).
+pub fn solve_compound_body(
+    body: &BodyState,
+    compound: Compound<'_, impl Fn(usize, u32) -> bool>,
+    statics: &StaticSet,
+    candidates: &[u32],
+    settings: &SolveSettings,
+    scratch: &mut Vec<u32>,
+    impacts: &mut Vec<ImpactRecord>,
+) -> BodyOutcome {
+    let parts = &compound.parts[..compound.parts.len().min(MAX_PARTS)];
+    if parts.is_empty() {
+        return solve_body(body, statics, candidates, settings, scratch, impacts);
+    }
+    let states = parts
+        .iter()
+        .map(|part| BodyState {
+            proxy: part.proxy,
+            local_center: part.core_center,
+            core_radius: part.core_radius,
+            ..*body
+        })
+        .collect();
+    let many = Many {
+        states,
+        interacts: compound.interacts,
+    };
+    solve(body, &many, statics, candidates, settings, scratch, impacts)
+}
 
 /// Sweeps one body against the static world and resolves its impacts.
 ///
@@ -133,10 +248,43 @@ pub fn solve_body(
     scratch: &mut Vec<u32>,
     impacts: &mut Vec<ImpactRecord>,
 ) -> BodyOutcome {
+    solve(
+        body,
+        &Single(body),
+        statics,
+        candidates,
+        settings,
+        scratch,
+        impacts,
+    )
+}
+
+/// The farthest core point of any part from `center`.
+#[inline(always)]
+fn parts_reach(parts: &impl Parts, center: Vec2) -> f32 {
+    let mut reach = parts.body(0).proxy.max_distance_from(center);
+    for part in 1..parts.count() {
+        reach = reach.max(parts.body(part).proxy.max_distance_from(center));
+    }
+    reach
+}
+
+/// [`solve_body`] over the parts of a body.
+#[inline(always)]
+fn solve(
+    body: &BodyState,
+    parts: &impl Parts,
+    statics: &StaticSet,
+    candidates: &[u32],
+    settings: &SolveSettings,
+    scratch: &mut Vec<u32>,
+    impacts: &mut Vec<ImpactRecord>,
+) -> BodyOutcome {
     let slop = settings.linear_slop;
     let dt = settings.dt;
+    let n = parts.count();
     // The farthest core point from the centre of mass: the reach of every sweep about it.
-    let reach = body.proxy.max_distance_from(body.local_center);
+    let reach = parts_reach(parts, body.local_center);
     let mut sweep = body.sweep;
     let implied = (sweep.linear_motion() / dt, sweep.angular_motion() / dt);
     let mut velocity = body.velocity.unwrap_or(implied);
@@ -157,14 +305,18 @@ pub fn solve_body(
     // The patches (world ends) of the contacts the last response acted on: the next sweep
     // starts at that pose, so its pair tests need not find them again, and decide on the very
     // points the response used.
-    let mut known: SmallVec<[(u32, (Vec2, Vec2)); MAX_CONTACTS]> = SmallVec::new();
+    let mut known: SmallVec<[KnownPatch; MAX_CONTACTS]> = SmallVec::new();
     let mut first = true;
     loop {
         let list: &[u32] = if first {
             candidates
         } else {
             scratch.clear();
-            statics.candidates(&body.proxy, &sweep, slop, scratch);
+            let mut bounds = parts.body(0).proxy.swept_aabb(&sweep);
+            for part in 1..n {
+                bounds = bounds.union(parts.body(part).proxy.swept_aabb(&sweep));
+            }
+            statics.candidates_in(bounds, slop, scratch);
             scratch
         };
         // The sweep's start rotation and its reach about the sweep's own centre of mass (what
@@ -173,16 +325,25 @@ pub fn solve_body(
         let sweep_reach = if sweep.local_center == body.local_center {
             reach
         } else {
-            body.proxy.max_distance_from(sweep.local_center)
+            parts_reach(parts, sweep.local_center)
         };
         let body_frame = BodyFrame::with_reach(&sweep, sweep_reach);
+        // A part's own reach about the sweep's centre of mass: the bounds of its pairs are
+        // those of its own points, tighter than the whole body's.
+        let part_reach = |part: usize| {
+            if n == 1 {
+                sweep_reach
+            } else {
+                parts.body(part).proxy.max_distance_from(sweep.local_center)
+            }
+        };
         // Visit the targets in the order the body can first reach them (branch and bound):
         // once that is later than the earliest hit so far, no target left can change the
         // answer. Targets the body never reaches drop out here. Short lists (nearly all) are
         // ordered on the stack; a longer one is visited as it comes.
-        let mut order = [((0.0f32, 1.0f32), 0u32); ORDERED_TARGETS];
+        let mut order = [((0.0f32, 1.0f32), 0u32, 0u32); ORDERED_TARGETS];
         let mut ordered = 0;
-        let short = list.len() <= ORDERED_TARGETS;
+        let short = list.len() * n <= ORDERED_TARGETS;
         if short {
             for &index in list {
                 let Some(key) = statics
@@ -193,31 +354,43 @@ pub fn solve_body(
                 else {
                     continue;
                 };
-                if let Some(window) = reach_interval(sweep_reach, &body.proxy, &sweep, key, slop) {
-                    // Insertion by (fraction, index): deterministic, ties in index order.
-                    let mut k = ordered;
-                    while k > 0 && order[k - 1].0.0 > window.0 {
-                        order[k] = order[k - 1];
-                        k -= 1;
+                for part in 0..n {
+                    if !parts.interacts(part, index) {
+                        continue;
                     }
-                    order[k] = (window, index);
-                    ordered += 1;
+                    let proxy = &parts.body(part).proxy;
+                    let reach = part_reach(part);
+                    if let Some(window) = reach_interval(reach, proxy, &sweep, key, slop) {
+                        // Insertion by fraction after the pairs in (target, part) order:
+                        // deterministic, ties in that order.
+                        let mut k = ordered;
+                        while k > 0 && order[k - 1].0.0 > window.0 {
+                            order[k] = order[k - 1];
+                            k -= 1;
+                        }
+                        order[k] = (window, index, part as u32);
+                        ordered += 1;
+                    }
                 }
             }
         }
-        let visits = if short { ordered } else { list.len() };
-        // Earliest hit; ties go to the lowest target index.
-        let mut best: Option<(f32, u32, Contact, bool)> = None;
+        let visits = if short { ordered } else { list.len() * n };
+        // Earliest hit; ties go to the lowest target index, then the lowest part.
+        let mut best: Option<(f32, u32, u32, Contact, bool)> = None;
         let mut failed: Option<(f32, ToiFailure)> = None;
         // Every target the body touches at the start of the sweep: once it drives into one,
         // they are responded to together (a body in a corner).
-        let mut touching: SmallVec<[(u32, Contact); MAX_CONTACTS]> = SmallVec::new();
+        let mut touching: SmallVec<[(u32, u32, Contact); MAX_CONTACTS]> = SmallVec::new();
         let mut nudge = None;
         for visit in 0..visits {
-            let ((enter, leave), index) = if short {
+            let ((enter, leave), index, part) = if short {
                 order[visit]
             } else {
-                ((0.0, 1.0), list[visit])
+                let (index, part) = (list[visit / n], visit % n);
+                if !parts.interacts(part, index) {
+                    continue;
+                }
+                ((0.0, 1.0), index, part as u32)
             };
             let (Some(target), Some(frame)) = (
                 statics.items().get(index as usize),
@@ -245,12 +418,21 @@ pub fn solve_body(
             // only inside.
             let interval = (enter, t_max.min(leave));
             // The patch of a contact the last response acted on, at this sweep's start.
-            let known_patch = known.iter().find(|k| k.0 == index).map(|k| k.1);
+            let known_patch = known
+                .iter()
+                .find(|k| k.0 == index && k.1 == part)
+                .map(|k| k.2);
+            let (reach, frame_of_part) = if n == 1 {
+                (sweep_reach, body_frame)
+            } else {
+                let reach = part_reach(part as usize);
+                (reach, BodyFrame::with_reach(&sweep, reach))
+            };
             match pair_toi(
-                body,
-                sweep_reach,
+                parts.body(part as usize),
+                reach,
                 &sweep,
-                body_frame,
+                frame_of_part,
                 target,
                 &frame,
                 slop,
@@ -262,7 +444,7 @@ pub fn solve_body(
                     if let Some(contact) = touch
                         && touching.len() < MAX_CONTACTS
                     {
-                        touching.push((index, contact));
+                        touching.push((index, part, contact));
                     }
                 }
                 PairOutcome::Hit {
@@ -272,13 +454,16 @@ pub fn solve_body(
                     touch,
                 } => {
                     result.started_overlapping |= overlapping && first;
-                    if best.is_none_or(|b| fraction < b.0 || (fraction == b.0 && index < b.1)) {
-                        best = Some((fraction, index, contact, touch.is_some()));
+                    let earlier = |b: (f32, u32, u32, Contact, bool)| {
+                        fraction < b.0 || (fraction == b.0 && (index, part) < (b.1, b.2))
+                    };
+                    if best.is_none_or(earlier) {
+                        best = Some((fraction, index, part, contact, touch.is_some()));
                     }
                     if let Some(contact) = touch
                         && touching.len() < MAX_CONTACTS
                     {
-                        touching.push((index, contact));
+                        touching.push((index, part, contact));
                     }
                 }
                 PairOutcome::Failed { fraction, failure } => {
@@ -318,7 +503,7 @@ pub fn solve_body(
                 break;
             }
         }
-        let Some((fraction, index, hit, resting)) = best else {
+        let Some((fraction, index, part, hit, resting)) = best else {
             result.position = sweep.pose_at(1.0).p;
             result.angle = sweep.a1;
             break;
@@ -327,7 +512,7 @@ pub fn solve_body(
         let contacts = if fraction == 0.0 {
             &touching[..]
         } else {
-            &[(index, hit)][..]
+            &[(index, part, hit)][..]
         };
         let center = sweep.center_at(fraction);
         let angle = sweep.angle_at(fraction);
@@ -339,7 +524,7 @@ pub fn solve_body(
         let mut patches: SmallVec<[Response; MAX_CONTACTS]> = SmallVec::new();
         let hits_at = target_separation(slop) - separation_tolerance(slop);
         known.clear();
-        for &(index, contact) in contacts {
+        for &(index, part, contact) in contacts {
             let Contact {
                 point,
                 normal,
@@ -348,6 +533,7 @@ pub fn solve_body(
             } = contact;
             impacts.push(ImpactRecord {
                 target: index,
+                part,
                 fraction: step_fraction,
                 point,
                 normal: -normal,
@@ -359,9 +545,10 @@ pub fn solve_body(
                     q: statics.records()[index as usize].key.rotation,
                 };
                 let contact = (normal, point);
-                contact_patch(&body.proxy, pose, &target.proxy, target_pose, contact, slop)
+                let proxy = &parts.body(part as usize).proxy;
+                contact_patch(proxy, pose, &target.proxy, target_pose, contact, slop)
             });
-            known.push((index, (a, b)));
+            known.push((index, part, (a, b)));
             let push = (hits_at - gap).clamp(0.0, slop) / ((1.0 - step_fraction).max(0.25) * dt);
             patches.push(((a - center, b - center), -normal, push));
         }
@@ -621,6 +808,244 @@ mod tests {
         }
     }
 
+    /// A part of `shape` placed at `offset` in the body frame (core circle at its centre).
+    fn part(shape: Shape, offset: Vec2) -> BodyPart {
+        let proxy = shape.proxy();
+        let points: Vec<Vec2> = proxy.points().iter().map(|p| *p + offset).collect();
+        BodyPart {
+            proxy: ShapeProxy::from_parts(&points, proxy.radius),
+            core_center: shape.mass_properties(1.0).center + offset,
+            core_radius: 0.25 * proxy.inner_radius(Vec2::ZERO),
+        }
+    }
+
+    /// Solves `parts` as one body (every pair allowed), returning the outcome and its impacts.
+    fn solve_parts(
+        body: &BodyState,
+        parts: &[BodyPart],
+        statics: &StaticSet,
+        mode: Resolution,
+    ) -> (BodyOutcome, Vec<ImpactRecord>) {
+        let candidates: Vec<u32> = (0..statics.items().len() as u32).collect();
+        let settings = SolveSettings {
+            mode,
+            linear_slop: crate::geometry::LINEAR_SLOP,
+            dt: 1.0 / 60.0,
+        };
+        let mut impacts = Vec::new();
+        let compound = Compound {
+            parts,
+            interacts: |_: usize, _: u32| true,
+        };
+        let out = solve_compound_body(
+            body,
+            compound,
+            statics,
+            &candidates,
+            &settings,
+            &mut Vec::new(),
+            &mut impacts,
+        );
+        (out, impacts)
+    }
+
+    /// A wall whose face is the plane x = `x`, 20 m tall.
+    fn wall(x: f32) -> StaticItem {
+        StaticItem {
+            proxy: Shape::from(Polygon::rectangle(0.005, 10.0).unwrap()).proxy(),
+            position: Vec2::new(x + 0.005, 0.0),
+            angle: 0.0,
+        }
+    }
+
+    /// A disc above and a rod below the centre of mass, thrown spinning at a wall: the body
+    /// hits at the earlier of the times each part alone would, with that part's index. Each
+    /// part alone is the same body (same sweep, centre of mass and reach bound) with one part,
+    /// so the times agree within the time of impact's tolerance band.
+    #[test]
+    fn a_two_part_body_hits_at_the_earlier_of_its_parts() {
+        let mut statics = StaticSet::default();
+        statics.rebuild([wall(2.0)]);
+        let parts = [
+            part(Shape::from(Circle::new(0.2).unwrap()), Vec2::new(0.1, 0.6)),
+            part(
+                Shape::from(Polygon::rectangle(0.5, 0.01).unwrap()),
+                Vec2::new(0.0, -0.4),
+            ),
+        ];
+        let mode = Resolution::Clamp;
+        let mut winners = [0u32; 2];
+        for spin in [-40.0f32, -7.0, 0.0, 7.0, 40.0] {
+            for speed in [5.0f32, 90.0, 500.0] {
+                let v = Vec2::new(speed, 0.0);
+                // Start far enough that the step's motion reaches the wall from 1 m out.
+                let start = Vec2::new(2.0 - 1.0 - speed / 60.0 * 0.5, 0.0);
+                let body = moving(parts[0].proxy, start, 0.3, v, spin);
+                let (out, impacts) = solve_parts(&body, &parts, &statics, mode);
+                let alone: Vec<Option<f32>> = parts
+                    .iter()
+                    .map(|p| {
+                        let (_, hits) =
+                            solve_parts(&body, core::slice::from_ref(p), &statics, mode);
+                        hits.first().map(|h| h.fraction)
+                    })
+                    .collect();
+                let earliest = alone
+                    .iter()
+                    .enumerate()
+                    .filter_map(|(k, f)| f.map(|f| (f, k as u32)))
+                    .fold(None, |b: Option<(f32, u32)>, x| match b {
+                        Some(b) if b.0 <= x.0 => Some(b),
+                        _ => Some(x),
+                    });
+                let case = format!("speed {speed}, spin {spin}: {alone:?} vs {impacts:?}");
+                let Some((fraction, winner)) = earliest else {
+                    assert!(impacts.is_empty(), "{case}");
+                    continue;
+                };
+                let first = impacts.first().unwrap_or_else(|| panic!("no hit: {case}"));
+                // The band is `separation_tolerance` (slop / 4) wide on each side of the
+                // target separation: as a fraction of the step, that over the slowest speed
+                // at which a point of the part approaches (the body's, 5 m/s over 1/60 s).
+                let band = 2.0 * separation_tolerance(crate::geometry::LINEAR_SLOP) / (5.0 / 60.0);
+                assert!((first.fraction - fraction).abs() <= band, "{case}");
+                assert_eq!(first.part, winner, "{case}");
+                winners[winner as usize] += 1;
+                // The body stops short of the wall, whichever part hit.
+                let end = Pose::new(out.position, out.angle);
+                for p in &parts {
+                    assert!(gap(&p.proxy, end, &statics.items()[0]) > 0.0, "{case}");
+                }
+            }
+        }
+        // Both parts win some of the cases: the test tells them apart.
+        assert!(winners[0] > 0 && winners[1] > 0, "{winners:?}");
+    }
+
+    /// One part is the one-collider body: the compound solve gives the same bits.
+    #[test]
+    fn a_one_part_compound_is_the_plain_body() {
+        let mut statics = StaticSet::default();
+        statics.rebuild([wall(2.0)]);
+        let shape = Shape::from(Polygon::rectangle(0.3, 0.1).unwrap());
+        let mut body = moving(
+            shape.proxy(),
+            Vec2::new(1.0, 0.2),
+            0.5,
+            Vec2::new(200.0, 30.0),
+            25.0,
+        );
+        body.core_radius = 0.025;
+        let one = BodyPart {
+            proxy: body.proxy,
+            core_center: body.local_center,
+            core_radius: body.core_radius,
+        };
+        for mode in [Resolution::Clamp, Resolution::SubStep { max_substeps: 4 }] {
+            let mut impacts = Vec::new();
+            let candidates = [0];
+            let settings = SolveSettings {
+                mode,
+                linear_slop: crate::geometry::LINEAR_SLOP,
+                dt: 1.0 / 60.0,
+            };
+            let out = solve_body(
+                &body,
+                &statics,
+                &candidates,
+                &settings,
+                &mut Vec::new(),
+                &mut impacts,
+            );
+            let (compound, compound_impacts) = solve_parts(&body, &[one], &statics, mode);
+            assert!(out.impacts > 0, "{mode:?}: the case must hit");
+            assert_eq!(out, compound, "{mode:?}");
+            assert_eq!(impacts, compound_impacts, "{mode:?}");
+        }
+    }
+
+    /// Equal times: the lower target wins, then the lower part. Two discs at `y = ±0.5` fly at
+    /// two posts at the same x, each part straight at one post: part 0 (above) at target 1,
+    /// part 1 (below) at target 0, at the same fraction (mirror images, the same bits). Then
+    /// two copies of one disc at one post: part 0.
+    #[test]
+    fn ties_go_to_the_lower_target_then_the_lower_part() {
+        let post = |y: f32| StaticItem {
+            proxy: Shape::from(Polygon::rectangle(0.1, 0.1).unwrap()).proxy(),
+            position: Vec2::new(2.1, y),
+            angle: 0.0,
+        };
+        let mut statics = StaticSet::default();
+        statics.rebuild([post(-0.5), post(0.5)]);
+        let disc = Shape::from(Circle::new(0.2).unwrap());
+        let above = part(disc, Vec2::new(0.0, 0.5));
+        let below = part(disc, Vec2::new(0.0, -0.5));
+        let body = moving(
+            above.proxy,
+            Vec2::new(0.5, 0.0),
+            0.0,
+            Vec2::new(200.0, 0.0),
+            0.0,
+        );
+        let mode = Resolution::Clamp;
+        let alone = |p: BodyPart| solve_parts(&body, &[p], &statics, mode).1[0];
+        let (a, b) = (alone(above), alone(below));
+        // The precondition of a tie: the same fraction, each part at its own post.
+        assert_eq!((a.fraction, a.target, b.target), (b.fraction, 1, 0));
+        let (_, impacts) = solve_parts(&body, &[above, below], &statics, mode);
+        assert_eq!((impacts[0].target, impacts[0].part), (0, 1), "{impacts:?}");
+        // Two copies of one part against one post: the lower part.
+        let (_, impacts) = solve_parts(&body, &[above, above], &statics, mode);
+        assert_eq!((impacts[0].target, impacts[0].part), (1, 0), "{impacts:?}");
+    }
+
+    /// A part that may not hit the wall passes it; the other stops the body.
+    #[test]
+    fn a_part_filtered_out_of_a_target_does_not_hit_it() {
+        let mut statics = StaticSet::default();
+        statics.rebuild([wall(2.0)]);
+        let disc = Shape::from(Circle::new(0.2).unwrap());
+        // The part ahead (x + 0.5) would hit first; it may not.
+        let parts = [
+            part(disc, Vec2::new(0.5, 0.0)),
+            part(disc, Vec2::new(-0.5, 0.0)),
+        ];
+        let body = moving(
+            parts[0].proxy,
+            Vec2::new(0.5, 0.0),
+            0.0,
+            Vec2::new(200.0, 0.0),
+            0.0,
+        );
+        let candidates = [0];
+        let settings = SolveSettings {
+            mode: Resolution::Clamp,
+            linear_slop: crate::geometry::LINEAR_SLOP,
+            dt: 1.0 / 60.0,
+        };
+        let mut impacts = Vec::new();
+        let compound = Compound {
+            parts: &parts,
+            interacts: |part: usize, _: u32| part != 0,
+        };
+        let out = solve_compound_body(
+            &body,
+            compound,
+            &statics,
+            &candidates,
+            &settings,
+            &mut Vec::new(),
+            &mut impacts,
+        );
+        assert_eq!(impacts.len(), 1, "{impacts:?}");
+        assert_eq!(impacts[0].part, 1);
+        // The rear disc stops at the wall (within the slop); the front one is through it.
+        assert!(
+            (out.position.x - 0.5 + 0.2 - 2.0).abs() < 2.0 * crate::geometry::LINEAR_SLOP,
+            "{out:?}"
+        );
+    }
+
     #[test]
     fn a_response_that_overflows_fails_the_body_at_its_impact() {
         // A box landing on a corner at 3e38 m/s, its inertia small against its mass: the
@@ -673,5 +1098,48 @@ mod tests {
         // Clamped at the impact, short of the floor.
         assert!(out.position.is_finite() && out.position.y > 0.5 && out.angle == 0.3);
         assert_eq!(out.velocity, body.velocity);
+    }
+
+    /// A thin rod (1 cm) whose centre of mass is off its shape (as a part of a compound body,
+    /// or a `Collider::with_offset`), resting on the floor and turning slowly: the sweep after
+    /// the contact's response fails with `RootFinder` (nothing could be certified), step after
+    /// step, so the body stays where it is. The same for `solve_body` and a compound body:
+    /// found by the arena with compound bodies. Ignored until the time of impact handles it.
+    #[test]
+    #[ignore = "known failure of the time of impact, not of the compound solve"]
+    fn an_off_centre_thin_rod_resting_on_the_floor_is_not_a_failure() {
+        let v = Vec2::new;
+        let rod = [
+            v(0.258614, -0.21415378),
+            v(0.0690487, 0.2181695),
+            v(0.059890434, 0.21415378),
+            v(0.24945575, -0.2181695),
+        ];
+        let local_center = v(0.09509212, 0.0);
+        let body = BodyState {
+            proxy: ShapeProxy::from_parts(&rod, 0.0),
+            local_center,
+            mass: 0.007905621,
+            inertia: 0.00016288512,
+            restitution: 0.0036303997,
+            friction: 0.48673043,
+            sweep: Sweep {
+                local_center,
+                c0: v(-18.379997, -24.78403),
+                c1: v(-18.420935, -24.787048),
+                a0: 2.7281969,
+                a1: 2.7424622,
+            },
+            velocity: Some((v(-2.4240878, -0.10633657), 0.85592186)),
+            core_radius: 0.00125,
+        };
+        let mut statics = StaticSet::default();
+        statics.rebuild([StaticItem {
+            proxy: Shape::from(Polygon::rectangle(25.01, 0.005).unwrap()).proxy(),
+            position: v(0.0, -25.005),
+            angle: 0.0,
+        }]);
+        let out = solve(&body, &statics, Resolution::Clamp);
+        assert_eq!(out.failure, None, "{out:?}");
     }
 }

@@ -26,7 +26,10 @@ mod test_support;
 mod toi;
 
 pub use body_solver::Resolution;
-pub(crate) use body_solver::{BodyState, ImpactRecord, SolveSettings, solve_body};
+pub(crate) use body_solver::{
+    BodyOutcome, BodyPart, BodyState, Compound, ImpactRecord, SolveSettings, solve_body,
+    solve_compound_body,
+};
 pub use bvh::{Bvh, QUERY_GROUP};
 pub use cast::CastError;
 pub use constants::{

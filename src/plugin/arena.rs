@@ -110,6 +110,10 @@ pub struct ArenaConfig {
     /// that keeps its world pose (within rounding), to test poses composed through the
     /// hierarchy. The default is `None`: root statics.
     pub level_root: Option<(Vec2, f32)>,
+    /// Whether bodies are compound: a thin rod (1 cm thick) and one or two random shapes at
+    /// its ends, each on a child entity of a body without a collider of its own, the mass
+    /// and inertia combined by the plugin. The default is `false`.
+    pub compound: bool,
 }
 
 impl Default for ArenaConfig {
@@ -127,6 +131,7 @@ impl Default for ArenaConfig {
             seed: 1,
             offset: Vec2::ZERO,
             level_root: None,
+            compound: false,
         }
     }
 }
@@ -154,6 +159,20 @@ fn random_body_shape(rng: &mut SceneRng) -> Shape {
         _ => Polygon::regular(5 + rng.below(4), rng.range(0.1, 0.3), 0.02).map(Shape::from),
     };
     shape.unwrap_or_else(|_| Shape::from(Circle::new(0.1).expect("0.1 m disc is valid")))
+}
+
+/// The parts of a compound arena body: a thin rod along x (1 cm thick, 0.3 to 1 m long) and
+/// one or two random shapes at its ends, turned at random.
+fn compound_parts(rng: &mut SceneRng) -> Vec<(Collider, Vec2, f32)> {
+    let half = rng.range(0.15, 0.5);
+    let rod = Collider::rectangle(half, 0.005).expect("rod size is valid");
+    let mut parts = vec![(rod, Vec2::ZERO, 0.0)];
+    for end in 0..1 + rng.below(2) {
+        let x = if end == 0 { half } else { -half };
+        let shape = Collider::new(random_body_shape(rng));
+        parts.push((shape, Vec2::new(x, 0.0), rng.range(-3.1, 3.1)));
+    }
+    parts
 }
 
 fn pose_of(transform: &Transform) -> Pose {
@@ -229,6 +248,13 @@ pub fn spawn_arena(world: &mut World, config: &ArenaConfig) -> Arena {
     for _ in 0..config.bodies {
         let shape = random_body_shape(&mut rng);
         let collider = Collider::new(shape);
+        // A compound body's parts (collider, position and angle in the body frame); a plain
+        // body is its own one part.
+        let parts = if config.compound {
+            compound_parts(&mut rng)
+        } else {
+            vec![(collider, Vec2::ZERO, 0.0)]
+        };
         let mut pose;
         let mut tries = 0;
         loop {
@@ -238,17 +264,20 @@ pub fn spawn_arena(world: &mut World, config: &ArenaConfig) -> Arena {
             );
             tries += 1;
             let clear = static_shapes.iter().all(|(proxy, spose)| {
-                let d = shape_distance(
-                    &DistanceInput {
-                        proxy_a: collider.proxy(),
-                        proxy_b: proxy,
-                        pose_a: pose,
-                        pose_b: *spose,
-                        use_radii: true,
-                    },
-                    &mut Default::default(),
-                );
-                d.distance > clearance && d.simplex_count < 3
+                parts.iter().all(|(part, at, angle)| {
+                    let part_pose = Pose::new(pose.transform_point(*at), pose.q.angle() + angle);
+                    let d = shape_distance(
+                        &DistanceInput {
+                            proxy_a: part.proxy(),
+                            proxy_b: proxy,
+                            pose_a: part_pose,
+                            pose_b: *spose,
+                            use_radii: true,
+                        },
+                        &mut Default::default(),
+                    );
+                    d.distance > clearance && d.simplex_count < 3
+                })
             });
             if clear || tries > 100 {
                 break;
@@ -262,6 +291,24 @@ pub fn spawn_arena(world: &mut World, config: &ArenaConfig) -> Arena {
         );
         let transform = Transform::from_xyz(pose.p.x, pose.p.y, 0.0)
             .with_rotation(Quat::from_rotation_z(pose.q.angle()));
+        if config.compound {
+            let entity = world
+                .spawn((
+                    CcdEnabled(config.ccd),
+                    velocity,
+                    transform,
+                    Restitution(rng.range(0.0, 1.0)),
+                    Friction(rng.range(0.0, 0.5)),
+                ))
+                .id();
+            for (part, at, angle) in parts {
+                let local = Transform::from_xyz(at.x, at.y, 0.0)
+                    .with_rotation(Quat::from_rotation_z(angle));
+                world.spawn((part, local, ChildOf(entity)));
+            }
+            bodies.push(entity);
+            continue;
+        }
         let mass = collider.mass_properties(1.0);
         let entity = world
             .spawn((
@@ -289,8 +336,9 @@ pub fn spawn_arena(world: &mut World, config: &ArenaConfig) -> Arena {
     }
 }
 
-/// The deepest overlap (m, positive) of any CCD body with any static its
-/// [`CollisionLayers`] let it hit, with the pair; 0 when nothing overlaps. Brute force over
+/// The deepest overlap (m, positive) of any CCD body's collider (its own or a child's, with
+/// the layers of that collider) with any static its [`CollisionLayers`] let it hit, with the
+/// pair (collider entity, static); 0 when nothing overlaps. Brute force over
 /// bounding-box-overlapping pairs, independent of the plugin's broad phase.
 pub fn deepest_penetration(world: &mut World) -> (f32, Option<(Entity, Entity)>) {
     type Item<'a> = (
@@ -322,13 +370,11 @@ pub fn deepest_penetration(world: &mut World) -> (f32, Option<(Entity, Entity)>)
             ))
         })
         .collect();
-    let mut bodies = world.query_filtered::<Item, (With<CcdEnabled>, Without<StaticCollider>)>();
     let mut deepest = 0.0f32;
     let mut pair = None;
-    for (entity, collider, transform, layers) in bodies.iter(world) {
-        let pose = pose_of(transform);
-        let aabb = collider.proxy().aabb(pose);
-        let layers = layers.copied().unwrap_or_default();
+    for (_, entity, pose, body_proxy, layers) in super::compound::body_colliders(world) {
+        let collider = &body_proxy;
+        let aabb = collider.aabb(pose);
         for (target, proxy, tpose, taabb, target_layers) in &targets {
             if !aabb.overlaps(taabb) || !layers.interacts(*target_layers) {
                 continue;
@@ -338,7 +384,7 @@ pub fn deepest_penetration(world: &mut World) -> (f32, Option<(Entity, Entity)>)
             // of each other), so the measure adds no rounding of its own to the plugin's.
             let d = shape_distance(
                 &DistanceInput {
-                    proxy_a: collider.proxy(),
+                    proxy_a: collider,
                     proxy_b: proxy,
                     pose_a: Pose {
                         p: Vec2::ZERO,

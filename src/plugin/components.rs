@@ -306,6 +306,12 @@ impl ShapeSummary {
     }
 }
 
+/// Writes the summary of `collider` into `poses`: a body whose last part was removed is its own
+/// collider again ([`update_compounds`](super::compound::update_compounds)).
+pub(crate) fn summarize(collider: &Collider, poses: &mut StepPoses) {
+    ShapeSummary::of(collider).write(poses);
+}
+
 /// The 2D pose of a `Transform`: translation x, y and the angle of the rotated x axis.
 pub(crate) fn pose_of(transform: &Transform) -> Option<(Vec2, f32)> {
     let (p, angle) = planar_pose(transform);

@@ -5,9 +5,10 @@
 use bevy_ecs::prelude::*;
 use glam::Vec2;
 
+use super::compound::Compounds;
 use super::outcome::{CcdError, CcdOutcome};
 use super::workspace::{
-    BodyEntry, COLLIDER_MASS_OK, HAS_MASS, HAS_VELOCITY, Lane, WAS_CLEAR, Warned,
+    BodyEntry, COLLIDER_MASS_OK, COMPOUND, HAS_MASS, HAS_VELOCITY, Lane, WAS_CLEAR, Warned,
 };
 use super::{
     BodyMass, Collider, CollisionLayers, Friction, Restitution, StaticCollider, StepPoses,
@@ -74,9 +75,10 @@ pub(crate) type ListQuery<'w, 's> = Query<
 >;
 
 /// What [`list_bodies`] needs beyond the query, and what it found: the step
-/// whose bodies are swept, and the materials it clamped ([`Warned`] bits).
-pub(crate) struct Listing {
+/// whose bodies are swept, the compound bodies, and the materials it clamped ([`Warned`] bits).
+pub(crate) struct Listing<'c> {
     pub(crate) step: u32,
+    pub(crate) compounds: &'c Compounds,
     pub(crate) clamped: u8,
 }
 
@@ -86,7 +88,7 @@ pub(crate) struct Listing {
 /// Returns the number of entries filled.
 ///
 /// A body is swept when its start was recorded in this step ([`StepPoses`]' step) with
-/// [`CcdEnabled`] on, and it has a [`Collider`]. The others' outcomes go back to
+/// [`CcdEnabled`] on, and it has a [`Collider`] or child colliders. The others' outcomes go back to
 /// [`CcdOutcome::Idle`]; an enabled one without a collider gets a warning, once.
 pub(crate) fn list_bodies<'a>(
     bodies: &mut ListQuery,
@@ -101,7 +103,13 @@ pub(crate) fn list_bodies<'a>(
         bodies
     {
         let swept = sweep.recorded && sweep.recorded_in == listing.step;
-        if !swept || !has_collider {
+        // Checked once per step: with no compound body, no body looks itself up.
+        let compound = if swept && !listing.compounds.is_empty() {
+            listing.compounds.find(entity)
+        } else {
+            None
+        };
+        if !swept || !(has_collider || compound.is_some()) {
             if swept && !sweep.warned_no_collider {
                 sweep.bypass_change_detection().warned_no_collider = true;
                 log::warn!("bevy_ccd: body {entity} has CcdEnabled but no Collider: not swept");
@@ -126,6 +134,11 @@ pub(crate) fn list_bodies<'a>(
         }
         if let Some(layers) = layers {
             entry.layers = *layers;
+        }
+        if let Some(compound) = compound {
+            entry.flags |= COMPOUND;
+            entry.layers = compound.layers;
+            entry.error = compound.error;
         }
         if let Some(m) = mass {
             entry.mass = m.mass;
@@ -301,9 +314,10 @@ impl Gather<'_, '_, '_, '_> {
                 continue;
             }
             // A turning body's bound comes from its reach, kept in `Sweep`: its collider is
-            // not read here (it is, in the solve, for the bodies with candidates). A body
-            // that does not turn gets the tighter box of its shape at both ends.
-            let bounds = if body.sweep.a0 != body.sweep.a1 {
+            // not read here (it is, in the solve, for the bodies with candidates); nor are a
+            // compound body's parts. A body that does not turn gets the tighter box of its
+            // shape at both ends.
+            let bounds = if body.sweep.a0 != body.sweep.a1 || body.flags & COMPOUND != 0 {
                 body.sweep.swept_disc_aabb(body.reach)
             } else if let Ok(collider) = self.colliders.get(body.entity) {
                 collider.proxy().swept_aabb(&body.sweep)

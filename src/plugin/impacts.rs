@@ -3,6 +3,7 @@
 
 use bevy_ecs::prelude::*;
 
+use super::compound::Compounds;
 use super::workspace::CcdWorkspace;
 use super::{CcdDiagnostics, CcdImpact};
 
@@ -10,6 +11,7 @@ use super::{CcdDiagnostics, CcdImpact};
 /// lane in listing order (the components were written by the solve).
 pub(crate) fn send_impacts(
     workspace: Res<CcdWorkspace>,
+    compounds: Res<Compounds>,
     mut diagnostics: ResMut<CcdDiagnostics>,
     mut impacts: MessageWriter<CcdImpact>,
 ) {
@@ -29,6 +31,7 @@ pub(crate) fn send_impacts(
             for (k, i) in list.iter().enumerate() {
                 impacts.write(CcdImpact {
                     body: body.entity,
+                    body_collider: compounds.collider(body, i.part),
                     target: target(i.target),
                     target_collider: collider(i.target),
                     fraction: i.fraction,

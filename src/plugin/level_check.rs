@@ -125,6 +125,7 @@ fn step_level(resolution: Resolution, parallel: bool) -> (Vec<Outcome>, Vec<Outc
         let hits = first.map(|i| Hits {
             first: CcdImpact {
                 body: entity,
+                body_collider: entity,
                 target: static_entities[i.target as usize],
                 target_collider: static_entities[i.target as usize],
                 fraction: i.fraction,

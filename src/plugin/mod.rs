@@ -9,6 +9,7 @@
 #[cfg(any(test, feature = "testing"))]
 mod arena;
 mod components;
+mod compound;
 mod config;
 #[cfg(feature = "debug")]
 pub(crate) mod debug;
@@ -170,6 +171,7 @@ impl Plugin for CcdPlugin {
     fn build(&self, app: &mut App) {
         app.init_resource::<CcdConfig>()
             .init_resource::<CcdWorkspace>()
+            .init_resource::<compound::Compounds>()
             .init_resource::<CcdDiagnostics>()
             .init_resource::<Time<Fixed>>()
             .add_message::<CcdImpact>()
@@ -216,6 +218,9 @@ impl Plugin for CcdPlugin {
             CcdSchedule,
             (
                 record::record_end.in_set(CcdStepSystems::RecordEnd),
+                compound::update_compounds
+                    .in_set(CcdStepSystems::RecordEnd)
+                    .after(record::record_end),
                 statics::update_statics.in_set(CcdStepSystems::UpdateStatics),
                 solve::solve.in_set(CcdStepSystems::Solve),
                 impacts::send_impacts.in_set(CcdStepSystems::Impacts),
@@ -247,7 +252,8 @@ pub enum CcdSystems {
 /// The phases of a step inside [`CcdSchedule`], chained in this order, one system each.
 #[derive(SystemSet, Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum CcdStepSystems {
-    /// Records the end pose the user's code left, into [`StepPoses`].
+    /// Records the end pose the user's code left, into [`StepPoses`]; then gathers the child
+    /// colliders of compound bodies.
     ///
     /// With [`CcdConfig::parallel`], split over the pool from 4,096 bodies.
     RecordEnd,

@@ -28,6 +28,9 @@ use crate::geometry::ToiFailure;
 pub struct CcdImpact {
     /// The CCD body.
     pub body: Entity,
+    /// The collider of the body that hit: the body itself, or the child entity whose
+    /// [`Collider`](super::Collider) is the part of a compound body that hit.
+    pub body_collider: Entity,
     /// The static target it hit: the [`StaticCollider`](super::StaticCollider) entity.
     pub target: Entity,
     /// The collider of the target it hit: `target` itself when the target is its own

@@ -9,17 +9,24 @@ use bevy_ecs::system::SystemChangeTick;
 use bevy_time::{Fixed, Time};
 use glam::Vec2;
 
+use super::compound::Compounds;
 use super::gather::{GROUP_MIN_BODIES, Gather, ListQuery, Listing, list_bodies};
 use super::outcome::CcdError;
 use super::parallel::{MAX_ITEMS, hand_out, pool, workers};
 use super::record::step_length;
 use super::workspace::{
-    BodyEntry, CcdWorkspace, HAS_MASS, HAS_VELOCITY, Lane, NUDGED, OVERLAPPING, WAS_CLEAR, Warned,
+    BodyEntry, COMPOUND, CcdWorkspace, HAS_MASS, HAS_VELOCITY, Lane, NUDGED, OVERLAPPING,
+    WAS_CLEAR, Warned,
 };
 use super::write::{StaticTargets, WriteQuery, write_lane};
-use super::{CcdConfig, CcdDiagnostics, Collider, Resolution, StaticCollider, StepPoses};
+use super::{
+    CcdConfig, CcdDiagnostics, Collider, CollisionLayers, Resolution, StaticCollider, StepPoses,
+};
 use crate::geometry::constants::MAX_SUBSTEPS;
-use crate::geometry::{self, BodyState, ShapeProxy, SolveSettings, StaticSet, solve_body};
+use crate::geometry::{
+    self, BodyOutcome, BodyState, Compound, ShapeProxy, SolveSettings, StaticSet, solve_body,
+    solve_compound_body,
+};
 
 /// Lanes per worker: enough that workers finish together when bodies cost unevenly.
 const LANES_PER_WORKER: usize = 16;
@@ -48,7 +55,7 @@ pub(crate) fn solve(
     time: Option<Res<Time<Fixed>>>,
     mut workspace: ResMut<CcdWorkspace>,
     mut diagnostics: ResMut<CcdDiagnostics>,
-    ticks: SystemChangeTick,
+    (ticks, compounds): (SystemChangeTick, Res<Compounds>),
     mut queries: ParamSet<(ListQuery, WriteQuery)>,
     colliders: Query<&Collider, Without<StaticCollider>>,
 ) {
@@ -76,8 +83,10 @@ pub(crate) fn solve(
         dt,
     };
     let step_error = step_error(&config, dt, workspace);
+    let compounds: &Compounds = &compounds;
     let mut listing = Listing {
         step: workspace.step,
+        compounds,
         clamped: 0,
     };
     let CcdWorkspace {
@@ -134,10 +143,18 @@ pub(crate) fn solve(
         (
             |(chunk, lane): &mut (&mut [BodyEntry], &mut Lane)| gather.lane(chunk, lane),
             |(chunk, lane): &mut (&mut [BodyEntry], &mut Lane)| {
-                solve_lane(chunk, lane, statics, &settings, &colliders);
+                let shared = Shared {
+                    statics,
+                    static_layers,
+                    compounds,
+                    settings: &settings,
+                };
+                solve_lane(chunk, lane, &shared, &colliders);
             },
         ),
-        |queries, (chunk, lane)| write_lane(chunk, lane, &mut queries.p1(), &targets),
+        |queries, (chunk, lane)| {
+            write_lane(chunk, lane, &mut queries.p1(), &targets, compounds);
+        },
     );
     entries.truncate(listed);
     if listing.clamped & Warned::RESTITUTION != 0 {
@@ -185,15 +202,102 @@ fn step_error(config: &CcdConfig, dt: f32, workspace: &mut CcdWorkspace) -> Opti
     }
 }
 
+/// What every lane's solve reads: the targets and their layers, the compound bodies, the
+/// settings.
+pub(crate) struct Shared<'a> {
+    pub(crate) statics: &'a StaticSet,
+    pub(crate) static_layers: &'a [CollisionLayers],
+    pub(crate) compounds: &'a Compounds,
+    pub(crate) settings: &'a SolveSettings,
+}
+
+/// Stores what the solver did with a body in its entry.
+fn store(body: &mut BodyEntry, outcome: BodyOutcome) {
+    body.position = outcome.position;
+    body.angle = outcome.angle;
+    if let Some((v, w)) = outcome.velocity {
+        body.velocity = v;
+        body.angular = w;
+    }
+    // Both counts are bounded by `max_substeps + 1`, a handful.
+    body.impact_count = outcome.impacts.min(u16::MAX as u32) as u16;
+    body.substeps = outcome.substeps.min(u16::MAX as u32) as u16;
+    if outcome.started_overlapping {
+        body.flags |= OVERLAPPING;
+    }
+    if outcome.nudged {
+        body.flags |= NUDGED;
+    }
+    body.error = outcome.failure.map(CcdError::Toi);
+}
+
+/// The [`BodyState`] of an entry, with the shape given.
+fn state(body: &BodyEntry, proxy: ShapeProxy, core_radius: f32) -> BodyState {
+    BodyState {
+        proxy,
+        local_center: body.sweep.local_center,
+        mass: body.mass,
+        inertia: body.inertia,
+        restitution: body.restitution,
+        friction: body.friction,
+        sweep: body.sweep,
+        velocity: (body.flags & HAS_VELOCITY != 0).then_some((body.velocity, body.angular)),
+        core_radius,
+    }
+}
+
+/// Solves a compound body ([`solve_compound_body`]): its parts and combined mass from
+/// `shared.compounds`, each (part, target) pair filtered by the part's layers.
+fn solve_compound(
+    body: &mut BodyEntry,
+    shared: &Shared,
+    list: &[u32],
+    scratch: &mut Vec<u32>,
+    impacts: &mut Vec<geometry::ImpactRecord>,
+) {
+    let Some(compound) = shared.compounds.find(body.entity) else {
+        body.error = Some(CcdError::InvalidBodyData);
+        return;
+    };
+    let (parts, layers) = shared.compounds.parts(compound);
+    if body.flags & HAS_MASS == 0 {
+        body.mass = compound.mass.mass;
+        body.inertia = compound.mass.inertia;
+    }
+    let target_layers = |target: u32| {
+        shared
+            .static_layers
+            .get(target as usize)
+            .copied()
+            .unwrap_or_default()
+    };
+    let compound = Compound {
+        parts,
+        interacts: |part: usize, target: u32| layers[part].interacts(target_layers(target)),
+    };
+    let state = state(body, parts[0].proxy, parts[0].core_radius);
+    body.impacts = impacts.len() as u32;
+    let outcome = solve_compound_body(
+        &state,
+        compound,
+        shared.statics,
+        list,
+        shared.settings,
+        scratch,
+        impacts,
+    );
+    store(body, outcome);
+}
+
 /// Bilateral advancement and resolution for the bodies of one lane; then the lane's lists of
 /// bodies to write back and bodies with impacts.
 pub(crate) fn solve_lane(
     chunk: &mut [BodyEntry],
     lane: &mut Lane,
-    statics: &StaticSet,
-    settings: &SolveSettings,
+    shared: &Shared,
     colliders: &Query<&Collider, Without<StaticCollider>>,
 ) {
+    let (statics, settings) = (shared.statics, shared.settings);
     let Lane {
         candidates,
         impacts,
@@ -221,9 +325,15 @@ pub(crate) fn solve_lane(
             if body.error.is_none() && body.candidate_count > 0 {
                 // The targets' records, touched alongside the colliders so that these
                 // misses overlap too.
+                let start = body.candidates as usize;
+                let list = &candidates[start..start + body.candidate_count as usize];
+                if body.flags & COMPOUND != 0 {
+                    // Rare: solved at once, its impacts kept together as any body's.
+                    solve_compound(body, shared, list, scratch, impacts);
+                    next += 1;
+                    continue;
+                }
                 if touch {
-                    let start = body.candidates as usize;
-                    let list = &candidates[start..start + body.candidate_count as usize];
                     touched ^= statics.touch(list);
                 }
                 match colliders.get(body.entity) {
@@ -244,37 +354,12 @@ pub(crate) fn solve_lane(
         }
         for (&index, &(proxy, core_radius)) in batch[..n].iter().zip(&shapes[..n]) {
             let body = &mut chunk[index];
-            let state = BodyState {
-                proxy,
-                local_center: body.sweep.local_center,
-                mass: body.mass,
-                inertia: body.inertia,
-                restitution: body.restitution,
-                friction: body.friction,
-                sweep: body.sweep,
-                velocity: (body.flags & HAS_VELOCITY != 0).then_some((body.velocity, body.angular)),
-                core_radius,
-            };
+            let state = state(body, proxy, core_radius);
             let start = body.candidates as usize;
             let list = &candidates[start..start + body.candidate_count as usize];
             body.impacts = impacts.len() as u32;
             let outcome = solve_body(&state, statics, list, settings, scratch, impacts);
-            body.position = outcome.position;
-            body.angle = outcome.angle;
-            if let Some((v, w)) = outcome.velocity {
-                body.velocity = v;
-                body.angular = w;
-            }
-            // Both counts are bounded by `max_substeps + 1`, a handful.
-            body.impact_count = outcome.impacts.min(u16::MAX as u32) as u16;
-            body.substeps = outcome.substeps.min(u16::MAX as u32) as u16;
-            if outcome.started_overlapping {
-                body.flags |= OVERLAPPING;
-            }
-            if outcome.nudged {
-                body.flags |= NUDGED;
-            }
-            body.error = outcome.failure.map(CcdError::Toi);
+            store(body, outcome);
         }
     }
     core::hint::black_box(touched);

@@ -47,7 +47,8 @@ pub use super::level_check::{check_level_against_geometry, check_record_passes};
 /// per-body solve and the plugin's own work. Not a stable API: they change with the solver.
 pub mod solver {
     pub use crate::geometry::body_solver::{
-        BodyOutcome, BodyState, ImpactRecord, SolveSettings, solve_body,
+        BodyOutcome, BodyPart, BodyState, Compound, ImpactRecord, SolveSettings, solve_body,
+        solve_compound_body,
     };
     pub use crate::geometry::static_set::{StaticItem, StaticSet};
 }
@@ -63,8 +64,8 @@ pub fn rewind(transform: &mut Mut<Transform>, poses: &mut Mut<StepPoses>, to: Tr
     poses.resolved_position = position;
     poses.resolved_angle = angle;
 }
-use super::{CcdConfig, CcdEnabled, CcdPlugin, Collider, StaticCollider, StepPoses, Velocity};
-use crate::geometry::{Aabb, LINEAR_SLOP, Pose};
+use super::{CcdConfig, CcdEnabled, CcdPlugin, StaticCollider, StepPoses, Velocity};
+use crate::geometry::{Aabb, LINEAR_SLOP};
 
 /// An app with the time and CCD plugins where every `update` runs exactly one fixed step of
 /// `timestep` seconds, whatever its length.
@@ -181,24 +182,19 @@ pub fn assert_contained(world: &mut World, interior: Aabb, what: &str) -> f32 {
     depth
 }
 
-/// The CCD bodies (entities with [`CcdEnabled`] and a [`Collider`], statics excluded) whose
-/// collider is not entirely inside `bounds`, or whose pose is not finite.
+/// The CCD bodies (entities with [`CcdEnabled`], statics excluded) one of whose colliders (its
+/// own [`Collider`](super::Collider) or a compound body's child colliders) is not entirely inside `bounds`, or
+/// whose pose is not finite.
 pub fn bodies_outside(world: &mut World, bounds: Aabb) -> Vec<Entity> {
-    let mut query = world.query_filtered::<(Entity, &Transform, &Collider), (
-        With<CcdEnabled>,
-        Without<StaticCollider>,
-    )>();
-    let mut out: Vec<Entity> = query
-        .iter(world)
-        .filter(|(_, transform, collider)| {
-            let (p, angle) = super::components::planar_pose(transform);
-            let pose = Pose::new(p, angle);
-            let aabb = collider.proxy().aabb(pose);
+    let mut out: Vec<Entity> = super::compound::body_colliders(world)
+        .into_iter()
+        .filter(|(_, _, pose, proxy, _)| {
+            let aabb = proxy.aabb(*pose);
             !(aabb.is_valid() && bounds.contains(&aabb))
         })
-        .map(|(e, _, _)| e)
+        .map(|(body, ..)| body)
         .collect();
-    out.sort();
+    out.dedup();
     out
 }
 

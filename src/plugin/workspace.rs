@@ -63,6 +63,9 @@ pub(crate) const WAS_CLEAR: u8 = 16;
 /// [`BodyEntry::flags`]: the solver moved the body out of a contact too close to search from
 /// ([`geometry::BodyOutcome::nudged`]), so it does not end at its user's pose.
 pub(crate) const NUDGED: u8 = 32;
+/// [`BodyEntry::flags`]: the body has child colliders
+/// ([`Compounds`](super::compound::Compounds)).
+pub(crate) const COMPOUND: u8 = 64;
 
 /// The buffers of one lane: a contiguous run of bodies that one thread lists, queries,
 /// solves and writes back. Flat lists instead of one small vector per body: a few bytes per

@@ -5,6 +5,7 @@ use bevy_ecs::prelude::*;
 use bevy_transform::components::Transform;
 use glam::Quat;
 
+use super::compound::Compounds;
 use super::hierarchy::Planar;
 use super::outcome::{CcdError, CcdImpact, CcdOutcome, Hits};
 use super::workspace::{BodyEntry, HAS_VELOCITY, Lane, NUDGED, OVERLAPPING};
@@ -50,6 +51,7 @@ pub(crate) fn write_lane(
     lane: &Lane,
     bodies: &mut WriteQuery,
     targets: &StaticTargets,
+    compounds: &Compounds,
 ) {
     let target = |index: u32| targets.entities[index as usize];
     let collider = |index: u32| targets.colliders[index as usize];
@@ -114,6 +116,7 @@ pub(crate) fn write_lane(
             Hits {
                 first: CcdImpact {
                     body: body.entity,
+                    body_collider: compounds.collider(body, i.part),
                     target: target(i.target),
                     target_collider: collider(i.target),
                     fraction: i.fraction,

@@ -1,0 +1,377 @@
+//! Compound bodies: the colliders on a body's descendants (reached through entities that are
+//! neither bodies nor targets) belong to it and move with it rigidly. [`update_compounds`]
+//! gathers them each step into [`Compounds`], with the combined mass properties and reach the
+//! solve and the broad phase need; a body without such descendants is not listed there and
+//! costs nothing new.
+//!
+//! A part's shape is placed in the body frame by the `Transform`s between the body and the
+//! part ([`pose_in`]), scaled by the product of their scales; the body's own scale is not
+//! applied, to its children as to its own collider (a body's `Transform` is its rigid pose).
+
+use bevy_ecs::prelude::*;
+use glam::Vec2;
+
+use super::hierarchy::{Ancestry, MAX_HIERARCHY_DEPTH, Planar, pose_in};
+use super::outcome::CcdError;
+use super::workspace::{BodyEntry, COMPOUND};
+use super::{CcdEnabled, Collider, CollisionLayers, StaticCollider, StepPoses, usable_mass};
+use crate::geometry::{BodyPart, MassProperties, Pose, ShapeProxy};
+
+/// The parts of one compound body: `Compounds::parts[start..start + count]`.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct CompoundBody {
+    pub(crate) body: Entity,
+    start: u32,
+    count: u32,
+    /// The combined mass properties at unit density, in the body frame.
+    pub(crate) mass: MassProperties,
+    /// The union of the parts' layers: the broad phase keeps a target any part may hit.
+    pub(crate) layers: CollisionLayers,
+    /// A part whose pose could not be read: the body is not swept.
+    pub(crate) error: Option<CcdError>,
+}
+
+/// Every compound body of the step, by entity, and their parts (flat lists, one index per
+/// part). Rebuilt each step by [`update_compounds`]; empty when no body has child colliders.
+#[derive(Resource, Default)]
+pub(crate) struct Compounds {
+    bodies: Vec<CompoundBody>,
+    shapes: Vec<BodyPart>,
+    entities: Vec<Entity>,
+    layers: Vec<CollisionLayers>,
+    /// The parts found this step, before they are grouped by body (kept to reuse its memory).
+    found: Vec<Found>,
+}
+
+/// A part found by [`update_compounds`]: its body, its entity, and its shape and unit mass in
+/// the body frame or the error of reading its pose.
+type Found = (Entity, Entity, Result<(BodyPart, MassProperties), CcdError>);
+
+impl Compounds {
+    /// Whether no body has child colliders.
+    pub(crate) fn is_empty(&self) -> bool {
+        self.bodies.is_empty()
+    }
+
+    /// The compound body `entity`, if it is one.
+    pub(crate) fn find(&self, entity: Entity) -> Option<&CompoundBody> {
+        let at = self.bodies.binary_search_by_key(&entity, |b| b.body).ok()?;
+        self.bodies.get(at)
+    }
+
+    /// The parts' shapes and layers of `body`.
+    pub(crate) fn parts(&self, body: &CompoundBody) -> (&[BodyPart], &[CollisionLayers]) {
+        let range = body.start as usize..(body.start + body.count) as usize;
+        (&self.shapes[range.clone()], &self.layers[range])
+    }
+
+    /// The collider entity of part `part` of the swept body `entry`: the body itself unless it
+    /// is compound.
+    pub(crate) fn collider(&self, entry: &BodyEntry, part: u32) -> Entity {
+        if entry.flags & COMPOUND == 0 {
+            return entry.entity;
+        }
+        self.find(entry.entity)
+            .and_then(|b| self.entities.get((b.start + part) as usize))
+            .copied()
+            .unwrap_or(entry.entity)
+    }
+}
+
+/// A collider's shape and unit mass placed by `pose` (a similarity) into the body frame:
+/// points and radius times the scale `s`, the mass times `s²`, the inertia times `s⁴`.
+fn placed(collider: &Collider, pose: Planar) -> (BodyPart, MassProperties) {
+    let s = pose.scale;
+    let frame = Pose::new(pose.position, pose.angle);
+    let proxy = collider.proxy();
+    let mut points = [Vec2::ZERO; crate::geometry::MAX_POLYGON_VERTICES];
+    for (to, from) in points.iter_mut().zip(proxy.points()) {
+        *to = frame.transform_point(s * *from);
+    }
+    let unit = collider.mass_properties(1.0);
+    let center = frame.transform_point(s * unit.center);
+    let part = BodyPart {
+        proxy: ShapeProxy::from_parts(&points[..proxy.count()], s * proxy.radius),
+        core_center: center,
+        core_radius: s * collider.core_radius(),
+    };
+    let mass = MassProperties {
+        mass: unit.mass * s * s,
+        center,
+        inertia: unit.inertia * (s * s) * (s * s),
+    };
+    (part, mass)
+}
+
+/// The mass properties of rigidly joined parts (all in one frame), by the parallel-axis
+/// theorem: `m = Σ m_i`, `c = Σ m_i c_i / m`, `I = Σ (I_i + m_i |c_i - c|²)`.
+pub(crate) fn combined_mass(parts: impl Iterator<Item = MassProperties> + Clone) -> MassProperties {
+    let mass: f32 = parts.clone().map(|p| p.mass).sum();
+    let center = parts.clone().map(|p| p.mass * p.center).sum::<Vec2>() / mass;
+    let inertia = parts
+        .map(|p| p.inertia + p.mass * p.center.distance_squared(center))
+        .sum();
+    MassProperties {
+        mass,
+        center,
+        inertia,
+    }
+}
+
+/// The parts' query: colliders under a parent that are neither bodies nor targets.
+type PartQuery<'w, 's> = Query<
+    'w,
+    's,
+    (Entity, &'static Collider),
+    (With<ChildOf>, Without<CcdEnabled>, Without<StaticCollider>),
+>;
+
+/// The kinds of entities on the way up: a body, a target.
+type KindQuery<'w, 's> = Query<'w, 's, (Has<CcdEnabled>, Has<StaticCollider>)>;
+
+/// The body a part belongs to: its nearest ancestor that is a body, unless a target comes
+/// first (or none does).
+fn owner(part: Entity, ancestry: &Ancestry, kinds: &KindQuery) -> Option<Entity> {
+    let mut at = part;
+    for _ in 0..MAX_HIERARCHY_DEPTH {
+        let parent = ancestry.get(at).ok()?.1?.parent();
+        match kinds.get(parent) {
+            Ok((true, false)) => return Some(parent),
+            Ok((_, true)) => return None,
+            _ => at = parent,
+        }
+    }
+    None
+}
+
+/// Part of [`CcdStepSystems::RecordEnd`](super::CcdStepSystems::RecordEnd): lists every
+/// compound body and its parts (its own [`Collider`], if any, first; then its descendants'
+/// in entity order), and keeps its [`StepPoses`]' centre of mass and reach the combined ones.
+/// A child collider's [`CollisionLayers`] are its own, else the body's.
+///
+/// Rebuilt each step from the hierarchy as it is, so that a part added, removed, reparented,
+/// moved or reshaped between steps counts from the next step; the work is in proportion to
+/// the parts, none without any.
+pub(crate) fn update_compounds(
+    mut compounds: ResMut<Compounds>,
+    parts: PartQuery,
+    kinds: KindQuery,
+    ancestry: Ancestry,
+    layers: Query<&CollisionLayers>,
+    mut bodies: Query<(Option<&Collider>, &mut StepPoses), Without<StaticCollider>>,
+) {
+    let compounds = compounds.as_mut();
+    if parts.is_empty() && compounds.bodies.is_empty() {
+        return;
+    }
+    let previous = core::mem::take(&mut compounds.bodies);
+    let Compounds {
+        bodies: list,
+        shapes,
+        entities,
+        layers: part_layers,
+        found,
+    } = compounds;
+    shapes.clear();
+    entities.clear();
+    part_layers.clear();
+    found.clear();
+    for (part, collider) in &parts {
+        if let Some(body) = owner(part, &ancestry, &kinds) {
+            let placed = pose_in(part, Some(body), &ancestry).map(|pose| placed(collider, pose));
+            found.push((body, part, placed));
+        }
+    }
+    found.sort_unstable_by_key(|&(body, part, _)| (body, part));
+    let mut rest = &found[..];
+    while let Some(&(body, ..)) = rest.first() {
+        let count = rest.iter().take_while(|f| f.0 == body).count();
+        let (group, later) = rest.split_at(count);
+        rest = later;
+        let Ok((own, mut poses)) = bodies.get_mut(body) else {
+            continue;
+        };
+        let body_layers = layers.get(body).copied().unwrap_or_default();
+        let start = shapes.len();
+        let mut masses = smallvec::SmallVec::<[MassProperties; 8]>::new();
+        if let Some(collider) = own {
+            let (part, mass) = placed(collider, Planar::IDENTITY);
+            shapes.push(part);
+            entities.push(body);
+            part_layers.push(body_layers);
+            masses.push(mass);
+        }
+        let mut error = None;
+        for &(_, part, ref placed) in group {
+            match placed {
+                Ok((shape, mass)) => {
+                    shapes.push(*shape);
+                    entities.push(part);
+                    part_layers.push(layers.get(part).copied().unwrap_or(body_layers));
+                    masses.push(*mass);
+                }
+                Err(e) => error = error.or(Some(*e)),
+            }
+        }
+        let mass = combined_mass(masses.iter().copied());
+        let union = part_layers[start..]
+            .iter()
+            .fold(CollisionLayers::new(0, 0), |u, l| {
+                CollisionLayers::new(u.memberships | l.memberships, u.filters | l.filters)
+            });
+        let reach = shapes[start..]
+            .iter()
+            .map(|p| p.proxy.reach(mass.center))
+            .fold(0.0, f32::max);
+        let poses = poses.bypass_change_detection();
+        poses.local_center = mass.center;
+        poses.reach = reach;
+        poses.mass_ok = usable_mass(mass.mass, mass.inertia);
+        list.push(CompoundBody {
+            body,
+            start: start as u32,
+            count: (shapes.len() - start) as u32,
+            mass,
+            layers: union,
+            error: error.or((shapes.len() == start).then_some(CcdError::InvalidBodyData)),
+        });
+    }
+    // A body that lost its last part is its own collider again.
+    for gone in previous {
+        if compounds.find(gone.body).is_none()
+            && let Ok((Some(collider), mut poses)) = bodies.get_mut(gone.body)
+        {
+            super::components::summarize(collider, poses.bypass_change_detection());
+        }
+    }
+}
+
+/// Every collider of every CCD body, read from the hierarchy as it is now (not from the
+/// plugin's lists): (body, collider entity, the body's pose, the collider's shape in the body
+/// frame, its layers). For the containment checks of [`testing`](super::testing).
+#[cfg(any(test, feature = "testing"))]
+pub(crate) fn body_colliders(
+    world: &mut World,
+) -> Vec<(Entity, Entity, Pose, ShapeProxy, CollisionLayers)> {
+    use bevy_ecs::system::RunSystemOnce;
+    use bevy_transform::components::Transform;
+    type Own<'w, 's> = Query<
+        'w,
+        's,
+        (Entity, &'static Collider, &'static Transform),
+        (With<CcdEnabled>, Without<StaticCollider>),
+    >;
+    let read = |own: Own,
+                parts: PartQuery,
+                kinds: KindQuery,
+                ancestry: Ancestry,
+                transforms: Query<&Transform>,
+                layers: Query<&CollisionLayers>| {
+        let pose = |transform: &Transform| {
+            let (p, angle) = super::components::planar_pose(transform);
+            Pose::new(p, angle)
+        };
+        let layers_of = |e: Entity| layers.get(e).copied().ok();
+        let mut out: Vec<_> = own
+            .iter()
+            .map(|(body, collider, transform)| {
+                let layers = layers_of(body).unwrap_or_default();
+                (body, body, pose(transform), *collider.proxy(), layers)
+            })
+            .collect();
+        for (part, collider) in &parts {
+            let Some(body) = owner(part, &ancestry, &kinds) else {
+                continue;
+            };
+            let (Ok(local), Ok(transform)) =
+                (pose_in(part, Some(body), &ancestry), transforms.get(body))
+            else {
+                continue;
+            };
+            let layers = layers_of(part).or(layers_of(body)).unwrap_or_default();
+            let shape = placed(collider, local).0.proxy;
+            out.push((body, part, pose(transform), shape, layers));
+        }
+        out.sort_by_key(|item| (item.0, item.1));
+        out
+    };
+    world.run_system_once(read).unwrap_or_default()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::{Circle, Polygon, Shape};
+
+    /// Two discs of radius `r` at `(±d, 0)`: `m = 2 π r²`, centre 0, and by the parallel-axis
+    /// theorem `I = 2 (π r² · r² / 2 + π r² d²)`.
+    #[test]
+    fn two_discs_combine_by_the_parallel_axis_theorem() {
+        let (r, d) = (0.3f32, 1.25f32);
+        let disc = Collider::new(Shape::from(Circle::new(r).unwrap()));
+        let at = |x: f32| Planar {
+            position: Vec2::new(x, 0.0),
+            angle: 0.4,
+            scale: 1.0,
+        };
+        let both = [placed(&disc, at(-d)).1, placed(&disc, at(d)).1];
+        let m = combined_mass(both.iter().copied());
+        let pi = core::f32::consts::PI;
+        let (mass, inertia) = (
+            2.0 * pi * r * r,
+            2.0 * (pi * r * r * r * r / 2.0 + pi * r * r * d * d),
+        );
+        // A few f32 roundings of values near 1: relative 1e-6.
+        assert!((m.mass - mass).abs() <= 1e-6 * mass, "{m:?}");
+        assert!(m.center.length() <= 1e-6, "{m:?}");
+        assert!(
+            (m.inertia - inertia).abs() <= 1e-6 * inertia,
+            "{m:?} vs {inertia}"
+        );
+    }
+
+    /// A box `2a × 2b` placed at scale `s`, off centre, beside a disc: against the analytic
+    /// values of the scaled box (`m = 4 a b s²`, `I = m s² (a² + b²) / 3`) and the disc.
+    #[test]
+    fn a_scaled_box_and_a_disc_combine_by_the_parallel_axis_theorem() {
+        let (a, b, s, r) = (0.5f32, 0.2f32, 2.0f32, 0.1f32);
+        let bar = Collider::new(Shape::from(Polygon::rectangle(a, b).unwrap()));
+        let disc = Collider::new(Shape::from(Circle::new(r).unwrap()));
+        let box_at = Vec2::new(0.0, 3.0);
+        let parts = [
+            placed(
+                &bar,
+                Planar {
+                    position: box_at,
+                    angle: 0.0,
+                    scale: s,
+                },
+            )
+            .1,
+            placed(&disc, Planar::IDENTITY).1,
+        ];
+        let m = combined_mass(parts.iter().copied());
+        let pi = core::f32::consts::PI;
+        let m_box = 4.0 * a * b * s * s;
+        let i_box = m_box * s * s * (a * a + b * b) / 3.0;
+        let m_disc = pi * r * r;
+        let i_disc = m_disc * r * r / 2.0;
+        let mass = m_box + m_disc;
+        let center = box_at * m_box / mass;
+        let inertia = i_box
+            + m_box * (box_at - center).length_squared()
+            + i_disc
+            + m_disc * center.length_squared();
+        // A few f32 roundings of values near 1: relative 1e-6 (the inertia sums terms of
+        // one sign, so its rounding stays relative too).
+        assert!((m.mass - mass).abs() <= 1e-6 * mass, "{m:?}");
+        assert!(
+            (m.center - center).length() <= 1e-6 * center.length(),
+            "{m:?}"
+        );
+        assert!(
+            (m.inertia - inertia).abs() <= 2e-6 * inertia,
+            "{m:?} vs {inertia}"
+        );
+    }
+}
