@@ -19,7 +19,7 @@ use super::constants::{
     target_separation,
 };
 use super::cull::reach_interval;
-use super::math::Pose;
+use super::math::{Pose, left_perp};
 pub use super::pair::BodyState;
 use super::pair::{Contact, PairOutcome, contact_patch, pair_toi};
 use super::response::{Response, patch_response};
@@ -79,6 +79,27 @@ pub struct ImpactRecord {
     pub normal: Vec2,
 }
 
+/// An impact [`solve_body_filtered`] is about to respond to, as its filter sees it: the
+/// earliest hit of a sweep, or, when that is at the sweep's start, each contact the body starts
+/// the sweep touching and is about to be responded to together with it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct CandidateHit {
+    /// Index of the target in the [`StaticSet`].
+    pub(crate) target: u32,
+    /// Fraction of the whole step.
+    pub(crate) fraction: f32,
+    /// Contact point (world).
+    pub(crate) point: Vec2,
+    /// Unit normal from the target toward the body.
+    pub(crate) normal: Vec2,
+    /// The body's velocity at the point as it arrives (m/s): `v + w × r`.
+    pub(crate) velocity: Vec2,
+    /// The body started this sweep overlapping the target.
+    pub(crate) overlapping: bool,
+    /// Sub-steps spent before this impact.
+    pub(crate) substep: u32,
+}
+
 /// What the solver did with a body. The impacts themselves go to the list passed to
 /// [`solve_body`], so that a caller solving many bodies keeps them all in one reused buffer
 /// instead of one small vector per body.
@@ -125,6 +146,9 @@ const ORDERED_TARGETS: usize = 32;
 /// [`Resolution::Clamp`]. Every loop is bounded: [`MAX_SUBSTEPS`] sub-steps, and
 /// [`MAX_CONTACTS_AT_ONE_POSE`] responses in a row without advancing, after which the body is
 /// wedged: it stays where it is, at rest.
+///
+/// Every impact is accepted; the plugin calls [`solve_body_filtered`] with its hooks.
+#[cfg(any(test, feature = "testing"))]
 pub fn solve_body(
     body: &BodyState,
     statics: &StaticSet,
@@ -132,6 +156,25 @@ pub fn solve_body(
     settings: &SolveSettings,
     scratch: &mut Vec<u32>,
     impacts: &mut Vec<ImpactRecord>,
+) -> BodyOutcome {
+    let accept_all = |_: &CandidateHit| true;
+    solve_body_filtered(body, statics, candidates, settings, scratch, impacts, &accept_all)
+}
+
+/// [`solve_body`] with a filter on its impacts: `accept` sees each impact before the body is
+/// responded to (see [`CandidateHit`]); a target it rejects is ignored by this body for the
+/// rest of the step, every sub-step included, as Box2D's `b2PreContinuousFcn` disables the
+/// pair, and the sweep is searched again without it. Only impacts are filtered, never pairs
+/// in the search, so a filter costs nothing until a body hits something.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn solve_body_filtered(
+    body: &BodyState,
+    statics: &StaticSet,
+    candidates: &[u32],
+    settings: &SolveSettings,
+    scratch: &mut Vec<u32>,
+    impacts: &mut Vec<ImpactRecord>,
+    accept: &impl Fn(&CandidateHit) -> bool,
 ) -> BodyOutcome {
     let slop = settings.linear_slop;
     let dt = settings.dt;
@@ -159,6 +202,9 @@ pub fn solve_body(
     // points the response used.
     let mut known: SmallVec<[(u32, (Vec2, Vec2)); MAX_CONTACTS]> = SmallVec::new();
     let mut first = true;
+    // Targets `accept` rejected: skipped for the rest of the step. Each search again after a
+    // rejection adds one, so they are bounded by the candidates.
+    let mut vetoed: SmallVec<[u32; 4]> = SmallVec::new();
     loop {
         let list: &[u32] = if first {
             candidates
@@ -207,7 +253,7 @@ pub fn solve_body(
         }
         let visits = if short { ordered } else { list.len() };
         // Earliest hit; ties go to the lowest target index.
-        let mut best: Option<(f32, u32, Contact, bool)> = None;
+        let mut best: Option<(f32, u32, Contact, bool, bool)> = None;
         let mut failed: Option<(f32, ToiFailure)> = None;
         // Every target the body touches at the start of the sweep: once it drives into one,
         // they are responded to together (a body in a corner).
@@ -219,6 +265,9 @@ pub fn solve_body(
             } else {
                 ((0.0, 1.0), list[visit])
             };
+            if !vetoed.is_empty() && vetoed.contains(&index) {
+                continue;
+            }
             let (Some(target), Some(frame)) = (
                 statics.items().get(index as usize),
                 statics
@@ -273,7 +322,7 @@ pub fn solve_body(
                 } => {
                     result.started_overlapping |= overlapping && first;
                     if best.is_none_or(|b| fraction < b.0 || (fraction == b.0 && index < b.1)) {
-                        best = Some((fraction, index, contact, touch.is_some()));
+                        best = Some((fraction, index, contact, touch.is_some(), overlapping));
                     }
                     if let Some(contact) = touch
                         && touching.len() < MAX_CONTACTS
@@ -307,6 +356,39 @@ pub fn solve_body(
             velocity = (Vec2::ZERO, 0.0);
             break;
         }
+        if let Some((fraction, index, hit, _, overlapping)) = best {
+            // The contacts the body is about to be responded to, each put to the filter (a
+            // start contact overlaps its target when its separation is negative, see
+            // `pair_toi`); rejected ones are skipped and the sweep searched again.
+            let contacts = if fraction == 0.0 {
+                &touching[..]
+            } else {
+                &[(index, hit)][..]
+            };
+            let center = sweep.center_at(fraction);
+            let before = vetoed.len();
+            for &(target, contact) in contacts {
+                let candidate = CandidateHit {
+                    target,
+                    fraction: step_start + fraction * (1.0 - step_start),
+                    point: contact.point,
+                    normal: -contact.normal,
+                    velocity: velocity.0 + velocity.1 * left_perp(contact.point - center),
+                    overlapping: if target == index {
+                        overlapping
+                    } else {
+                        contact.separation < 0.0
+                    },
+                    substep: result.substeps,
+                };
+                if !accept(&candidate) {
+                    vetoed.push(target);
+                }
+            }
+            if vetoed.len() > before {
+                continue;
+            }
+        }
         first = false;
         if let Some((fraction, failure)) = failed {
             // A failed query clamps the body at the last time known to be clear.
@@ -318,7 +400,7 @@ pub fn solve_body(
                 break;
             }
         }
-        let Some((fraction, index, hit, resting)) = best else {
+        let Some((fraction, index, hit, resting, _)) = best else {
             result.position = sweep.pose_at(1.0).p;
             result.angle = sweep.a1;
             break;

@@ -24,7 +24,11 @@ mod test_support;
 mod toi;
 
 pub use body_solver::Resolution;
-pub(crate) use body_solver::{BodyState, ImpactRecord, SolveSettings, solve_body};
+#[cfg(any(test, feature = "testing"))]
+pub(crate) use body_solver::solve_body;
+pub(crate) use body_solver::{
+    BodyState, CandidateHit, ImpactRecord, SolveSettings, solve_body_filtered,
+};
 pub use bvh::{Bvh, QUERY_GROUP};
 pub use constants::{
     LINEAR_SLOP, MAX_POLYGON_VERTICES, MAX_WORLD_COORDINATE, SLOP_PER_COORDINATE_SPACING,

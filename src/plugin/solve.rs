@@ -5,10 +5,12 @@
 //! ([`write_lane`]), the lanes handed out by [`hand_out`].
 
 use bevy_ecs::prelude::*;
-use bevy_ecs::system::SystemChangeTick;
+use bevy_ecs::system::{StaticSystemParam, SystemChangeTick, SystemParamItem};
 use bevy_time::{Fixed, Time};
 use glam::Vec2;
+use std::sync::atomic::{AtomicBool, Ordering};
 
+use super::hooks::{CcdHooks, ask};
 use super::gather::{GROUP_MIN_BODIES, Gather, ListQuery, Listing, list_bodies};
 use super::outcome::CcdError;
 use super::parallel::{MAX_ITEMS, hand_out, pool, workers};
@@ -19,7 +21,9 @@ use super::workspace::{
 use super::write::{WriteQuery, write_lane};
 use super::{CcdConfig, CcdDiagnostics, Collider, Resolution, StaticCollider, StepPoses};
 use crate::geometry::constants::MAX_SUBSTEPS;
-use crate::geometry::{self, BodyState, ShapeProxy, SolveSettings, StaticSet, solve_body};
+use crate::geometry::{
+    self, BodyState, CandidateHit, ShapeProxy, SolveSettings, StaticSet, solve_body_filtered,
+};
 
 /// Lanes per worker: enough that workers finish together when bodies cost unevenly.
 const LANES_PER_WORKER: usize = 16;
@@ -42,8 +46,11 @@ const SOLVE_BATCH: usize = 16;
 /// too and writes each finished one back between its own. Each body depends only on itself
 /// and the statics, and component writes commute (one body, one lane), so the results are
 /// the same bits on any number of threads; the messages keep the listing order
-/// ([`send_impacts`](super::impacts::send_impacts)).
-pub(crate) fn solve(
+/// ([`send_impacts`](super::impacts::send_impacts)). `hooks` are asked about each impact
+/// ([`CcdHooks`]); `()`, the default, accepts all.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn solve<H: CcdHooks + 'static>(
+    hooks: StaticSystemParam<H>,
     config: Res<CcdConfig>,
     time: Option<Res<Time<Fixed>>>,
     mut workspace: ResMut<CcdWorkspace>,
@@ -51,7 +58,9 @@ pub(crate) fn solve(
     ticks: SystemChangeTick,
     mut queries: ParamSet<(ListQuery, WriteQuery)>,
     colliders: Query<&Collider, Without<StaticCollider>>,
-) {
+) where
+    for<'w, 's> SystemParamItem<'w, 's, H>: CcdHooks,
+{
     let dt = step_length(&config, time.as_deref());
     let workspace = workspace.as_mut();
     // Whatever this run writes carries this tick: a `Transform` not changed after it is
@@ -110,6 +119,11 @@ pub(crate) fn solve(
         grouping: most >= GROUP_MIN_BODIES && statics.bvh().walks_groups(),
         static_layers,
     };
+    let hooks = &*hooks;
+    let hook_panicked = AtomicBool::new(false);
+    let accept = |body: Entity, hit: &CandidateHit| {
+        ask(hooks, static_entities, &hook_panicked, body, hit)
+    };
     let mut listed = 0;
     let (all, listed_out, listing_out) = (&mut entries[..], &mut listed, &mut listing);
     hand_out(
@@ -127,12 +141,17 @@ pub(crate) fn solve(
         (
             |(chunk, lane): &mut (&mut [BodyEntry], &mut Lane)| gather.lane(chunk, lane),
             |(chunk, lane): &mut (&mut [BodyEntry], &mut Lane)| {
-                solve_lane(chunk, lane, statics, &settings, &colliders);
+                solve_lane(chunk, lane, statics, &settings, &colliders, &accept);
             },
         ),
         |queries, (chunk, lane)| write_lane(chunk, lane, &mut queries.p1(), static_entities),
     );
     entries.truncate(listed);
+    if hook_panicked.load(Ordering::Relaxed) {
+        workspace.warn_once(Warned::HOOK_PANIC, || {
+            "a CcdHooks::accept_impact panicked: its impacts were kept".into()
+        });
+    }
     if listing.clamped & Warned::RESTITUTION != 0 {
         workspace.warn_once(Warned::RESTITUTION, || {
             "a Restitution outside [0, 1] was clamped into it".into()
@@ -186,6 +205,7 @@ pub(crate) fn solve_lane(
     statics: &StaticSet,
     settings: &SolveSettings,
     colliders: &Query<&Collider, Without<StaticCollider>>,
+    accept: &impl Fn(Entity, &CandidateHit) -> bool,
 ) {
     let Lane {
         candidates,
@@ -251,7 +271,10 @@ pub(crate) fn solve_lane(
             let start = body.candidates as usize;
             let list = &candidates[start..start + body.candidate_count as usize];
             body.impacts = impacts.len() as u32;
-            let outcome = solve_body(&state, statics, list, settings, scratch, impacts);
+            let entity = body.entity;
+            let accept = |hit: &CandidateHit| accept(entity, hit);
+            let outcome =
+                solve_body_filtered(&state, statics, list, settings, scratch, impacts, &accept);
             body.position = outcome.position;
             body.angle = outcome.angle;
             if let Some((v, w)) = outcome.velocity {
