@@ -42,10 +42,10 @@ pub use plugin::testing;
 pub mod prelude {
     pub use crate::geometry::{Aabb, ShapeError};
     pub use crate::plugin::{
-        BodyMass, CcdConfig, CcdDiagnostics, CcdEnabled, CcdError, CcdHooks, CcdImpact,
-        CcdOutcome, CcdPlugin, CcdSchedule, CcdStartSchedule, CcdStepSystems, CcdSystems,
-        Collider, CollisionLayers, Friction, Hits, ImpactCandidate, OneWayPlatform,
-        OneWayPlatforms, Resolution, Restitution, StaticCollider, StepPoses, Velocity,
+        BodyMass, CcdConfig, CcdDiagnostics, CcdEnabled, CcdError, CcdHooks, CcdImpact, CcdOutcome,
+        CcdPlugin, CcdSchedule, CcdStartSchedule, CcdStepSystems, CcdSystems, Collider,
+        CollisionLayers, Friction, Hits, ImpactCandidate, OneWayPlatform, OneWayPlatforms,
+        Resolution, Restitution, StaticCollider, StepPoses, Velocity,
     };
     pub use glam::Vec2;
 }

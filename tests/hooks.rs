@@ -152,10 +152,16 @@ fn a_body_falling_onto_a_one_way_platform_lands() {
                 lowest - R - TOP
             );
             let last = landed.ys[steps - 1] - R - TOP;
-            assert!(last <= SLOP + TOL, "{what}: not resting on it, {last} m above");
+            assert!(
+                last <= SLOP + TOL,
+                "{what}: not resting on it, {last} m above"
+            );
             // As a plain static target would hold it, to the bit.
             let plain = run(Platform::Ignored, resolution, G, y0, -speed, steps);
-            assert_eq!(landed.bits, plain.bits, "{what}: differs from a plain target");
+            assert_eq!(
+                landed.bits, plain.bits,
+                "{what}: differs from a plain target"
+            );
             // Without CCD it would be far below the platform after one step.
             if speed == 500.0 {
                 let free = run(Platform::Absent, resolution, G, y0, -speed, 1);
@@ -253,9 +259,11 @@ fn a_hook_that_vetoes_everything_lets_bodies_through_every_target() {
             assert!(targets.is_empty() && x > 1.9, "{what}: {targets:?} at {x}");
             assert_eq!(bits, free.2, "{what}: not where its user sent it");
             // Without it, the first wall stops the ball.
-            let (x, targets, _) =
-                through_walls(CcdPlugin::default(), resolution, speed, &[], true);
-            assert!(targets[0] == 0 && x + R <= 0.5, "{what}: {targets:?} at {x}");
+            let (x, targets, _) = through_walls(CcdPlugin::default(), resolution, speed, &[], true);
+            assert!(
+                targets[0] == 0 && x + R <= 0.5,
+                "{what}: {targets:?} at {x}"
+            );
         }
     }
 }
@@ -326,8 +334,13 @@ fn a_hook_is_told_the_impact_it_is_asked_about() {
         // No spin: the velocity at the point is the body's.
         assert_eq!(hit.relative_velocity, v, "{resolution:?}");
         assert!(!hit.overlapping, "{resolution:?}");
-        let deep = of(inside).next().expect("the inside ball's impact was asked about");
-        assert!(deep.overlapping && deep.fraction == 0.0, "{resolution:?}: {deep:?}");
+        let deep = of(inside)
+            .next()
+            .expect("the inside ball's impact was asked about");
+        assert!(
+            deep.overlapping && deep.fraction == 0.0,
+            "{resolution:?}: {deep:?}"
+        );
     }
 }
 
@@ -374,7 +387,10 @@ fn a_panicking_hook_keeps_its_impacts_and_panics_nothing() {
     for parallel in [false, true] {
         let panics = column(CcdPlugin::default().with_hooks::<Panics>(), parallel);
         let plain = column(CcdPlugin::default(), parallel);
-        assert!(panics == plain, "parallel {parallel}: differs from no hooks");
+        assert!(
+            panics == plain,
+            "parallel {parallel}: differs from no hooks"
+        );
     }
 }
 
@@ -421,5 +437,8 @@ fn one_way_platforms_give_the_same_bits_on_one_thread_or_many() {
     assert!(parallel.1 == serial.1, "outcomes differ");
     assert!(parallel.2 == serial.2, "impact messages differ");
     // The hook changed the run: bodies passed obstacles from below or from inside.
-    assert!(arena(false, false).0 != serial.0, "the platforms changed nothing");
+    assert!(
+        arena(false, false).0 != serial.0,
+        "the platforms changed nothing"
+    );
 }

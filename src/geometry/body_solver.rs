@@ -158,7 +158,15 @@ pub fn solve_body(
     impacts: &mut Vec<ImpactRecord>,
 ) -> BodyOutcome {
     let accept_all = |_: &CandidateHit| true;
-    solve_body_filtered(body, statics, candidates, settings, scratch, impacts, &accept_all)
+    solve_body_filtered(
+        body,
+        statics,
+        candidates,
+        settings,
+        scratch,
+        impacts,
+        &accept_all,
+    )
 }
 
 /// [`solve_body`] with a filter on its impacts: `accept` sees each impact before the body is
@@ -701,6 +709,52 @@ mod tests {
             // Moving down into the V is impossible: whatever it keeps, it does not approach.
             assert!(v.y >= -1e-4, "{mode:?}: still falling at {v}, {w}");
         }
+    }
+
+    /// A target the filter rejects is asked about once and ignored for the rest of the step,
+    /// every sub-step included: a ball bouncing (restitution 1) between two kept walls passes
+    /// the rejected wall between them both ways, asked only the first time.
+    #[test]
+    fn a_rejected_target_is_ignored_for_the_rest_of_the_step() {
+        let wall = |x: f32| StaticItem {
+            proxy: Shape::from(Polygon::rectangle(0.005, 1.0).unwrap()).proxy(),
+            position: Vec2::new(x, 0.0),
+            angle: 0.0,
+        };
+        let mut statics = StaticSet::default();
+        // Target 0 (rejected) at x = 1, kept targets 1 at x = 1.5 and 2 at x = 0.5.
+        statics.rebuild([wall(1.0), wall(1.5), wall(0.5)]);
+        let ball = Shape::from(Circle::new(0.1).unwrap()).proxy();
+        let mut body = moving(ball, Vec2::new(1.25, 0.0), 0.0, Vec2::new(120.0, 0.0), 0.0);
+        body.restitution = 1.0;
+        let settings = SolveSettings {
+            mode: Resolution::SubStep { max_substeps: 8 },
+            linear_slop: crate::geometry::LINEAR_SLOP,
+            dt: 1.0 / 60.0,
+        };
+        let asked = core::cell::RefCell::new(Vec::new());
+        let accept = |hit: &CandidateHit| {
+            asked.borrow_mut().push(hit.target);
+            hit.target != 0
+        };
+        let mut impacts = Vec::new();
+        let out = solve_body_filtered(
+            &body,
+            &statics,
+            &[0, 1, 2],
+            &settings,
+            &mut Vec::new(),
+            &mut impacts,
+            &accept,
+        );
+        // 2 m a step: 0.145 m to wall 1, 0.79 m back to wall 2 through wall 0 (asked), 0.79 m
+        // to wall 1 again through wall 0 (not asked), 0.275 m back.
+        assert_eq!(asked.into_inner(), [1, 0, 2, 1], "{out:?}");
+        let targets: Vec<u32> = impacts.iter().map(|i| i.target).collect();
+        assert_eq!(targets, [1, 2, 1], "{out:?}");
+        // Without the filter, wall 0 stops it on the way back.
+        let out = solve(&body, &statics, settings.mode);
+        assert!(out.position.x > 1.0, "{out:?}");
     }
 
     #[test]

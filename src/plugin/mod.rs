@@ -129,10 +129,7 @@ fn add_solve<H: CcdHooks + 'static>(app: &mut App)
 where
     for<'w, 's> SystemParamItem<'w, 's, H>: CcdHooks,
 {
-    app.add_systems(
-        CcdSchedule,
-        solve::solve::<H>.in_set(CcdStepSystems::Solve),
-    );
+    app.add_systems(CcdSchedule, solve::solve::<H>.in_set(CcdStepSystems::Solve));
 }
 
 impl Default for CcdPlugin {

@@ -10,8 +10,8 @@ use bevy_time::{Fixed, Time};
 use glam::Vec2;
 use std::sync::atomic::{AtomicBool, Ordering};
 
-use super::hooks::{CcdHooks, ask};
 use super::gather::{GROUP_MIN_BODIES, Gather, ListQuery, Listing, list_bodies};
+use super::hooks::{CcdHooks, ask};
 use super::outcome::CcdError;
 use super::parallel::{MAX_ITEMS, hand_out, pool, workers};
 use super::record::step_length;
@@ -121,9 +121,8 @@ pub(crate) fn solve<H: CcdHooks + 'static>(
     };
     let hooks = &*hooks;
     let hook_panicked = AtomicBool::new(false);
-    let accept = |body: Entity, hit: &CandidateHit| {
-        ask(hooks, static_entities, &hook_panicked, body, hit)
-    };
+    let accept =
+        |body: Entity, hit: &CandidateHit| ask(hooks, static_entities, &hook_panicked, body, hit);
     let mut listed = 0;
     let (all, listed_out, listing_out) = (&mut entries[..], &mut listed, &mut listing);
     hand_out(
