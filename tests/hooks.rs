@@ -46,8 +46,8 @@ fn app_with_plugin(plugin: CcdPlugin, resolution: Resolution, gravity: Vec2) -> 
 /// How the platform is present in a run.
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Platform {
-    /// A `OneWayPlatform` with the `OneWayPlatforms` hook.
-    OneWay,
+    /// A `OneWayPlatform` with this `up` and the `OneWayPlatforms` hook.
+    OneWay(Vec2),
     /// The same component, but the plugin has no hooks: a plain static target.
     Ignored,
     /// No platform: where a body with nothing in its way ends.
@@ -73,15 +73,17 @@ fn run(
     steps: usize,
 ) -> Run {
     let plugin = match platform {
-        Platform::OneWay => CcdPlugin::default().with_hooks::<OneWayPlatforms>(),
+        Platform::OneWay(_) => CcdPlugin::default().with_hooks::<OneWayPlatforms>(),
         _ => CcdPlugin::default(),
     };
     let mut app = app_with_plugin(plugin, resolution, gravity);
     if platform != Platform::Absent {
+        let up = match platform {
+            Platform::OneWay(up) => up,
+            _ => Vec2::Y,
+        };
         let at = spawn_box(&mut app, Vec2::new(2.0, TOP), Vec2::ZERO);
-        app.world_mut()
-            .entity_mut(at)
-            .insert(OneWayPlatform::default());
+        app.world_mut().entity_mut(at).insert(OneWayPlatform { up });
     }
     let ball = spawn_ball(&mut app, R, Vec2::new(0.0, y0), Vec2::new(0.0, vy), ());
     let mut ys = Vec::new();
@@ -104,6 +106,9 @@ fn steps_for(speed: f32) -> usize {
     (1.7 / (speed * DT as f32)).ceil() as usize
 }
 
+/// The platform passable from below.
+const ONE_WAY: Platform = Platform::OneWay(Vec2::Y);
+
 const MODES: [Resolution; 2] = [Resolution::Clamp, Resolution::SubStep { max_substeps: 4 }];
 
 #[test]
@@ -113,7 +118,7 @@ fn a_body_rising_through_a_one_way_platform_passes() {
             let what = format!("{resolution:?} at {speed} m/s");
             // From 0.35 m below the bottom face to above the top.
             let (y0, steps) = (-0.5, steps_for(speed));
-            let passed = run(Platform::OneWay, resolution, Vec2::ZERO, y0, speed, steps);
+            let passed = run(ONE_WAY, resolution, Vec2::ZERO, y0, speed, steps);
             let free = run(Platform::Absent, resolution, Vec2::ZERO, y0, speed, steps);
             assert!(!passed.hit, "{what}: stopped: {:?}", passed.outcome);
             assert_eq!(passed.bits, free.bits, "{what}: not where its user sent it");
@@ -141,7 +146,7 @@ fn a_body_falling_onto_a_one_way_platform_lands() {
             // From 0.35 m above the top face, under gravity, for two seconds: it lands and
             // rests there, on the contacts it starts each step with.
             let (y0, steps) = (0.5, 120);
-            let landed = run(Platform::OneWay, resolution, G, y0, -speed, steps);
+            let landed = run(ONE_WAY, resolution, G, y0, -speed, steps);
             assert!(landed.hit, "{what}: never hit: {:?}", landed.outcome);
             // Never below the top face; a hit leaves the surfaces `SLOP ± TOL` apart, and a
             // resting contact is kept within the slop.
@@ -178,7 +183,7 @@ fn a_body_spawned_half_inside_a_one_way_platform_goes_where_its_user_sends_it() 
             let what = format!("{resolution:?} at {vy} m/s");
             // Its centre on the top face: half inside.
             let (y0, steps) = (TOP, steps_for(vy.abs().max(5.0)));
-            let out = run(Platform::OneWay, resolution, Vec2::ZERO, y0, vy, steps);
+            let out = run(ONE_WAY, resolution, Vec2::ZERO, y0, vy, steps);
             let free = run(Platform::Absent, resolution, Vec2::ZERO, y0, vy, steps);
             assert!(!out.hit, "{what}: stopped: {:?}", out.outcome);
             assert_eq!(out.bits, free.bits, "{what}: not where its user sent it");
@@ -188,6 +193,36 @@ fn a_body_spawned_half_inside_a_one_way_platform_goes_where_its_user_sends_it() 
                 assert!(held.hit && held.bits != free.bits, "{what}: not held");
             }
         }
+    }
+}
+
+/// A platform whose `up` is zero or not finite has no side to pass from: it stops bodies from
+/// both sides, as a plain target. One of any length works as its direction.
+#[test]
+fn a_platforms_up_without_a_direction_makes_it_a_plain_target() {
+    for resolution in MODES {
+        for up in [Vec2::ZERO, Vec2::NAN, Vec2::new(0.0, f32::INFINITY)] {
+            let what = format!("{resolution:?}, up {up}");
+            let (y0, steps) = (-0.5, 1);
+            let out = run(
+                Platform::OneWay(up),
+                resolution,
+                Vec2::ZERO,
+                y0,
+                500.0,
+                steps,
+            );
+            assert!(out.hit && out.ys[0] + R < -TOP, "{what}: not stopped");
+        }
+        let long = run(
+            Platform::OneWay(Vec2::new(0.0, 7.0)),
+            resolution,
+            Vec2::ZERO,
+            -0.5,
+            500.0,
+            1,
+        );
+        assert!(!long.hit, "{resolution:?}: a long up is not a direction");
     }
 }
 
@@ -273,16 +308,22 @@ fn a_hook_reading_a_resource_vetoes_only_its_targets() {
     for resolution in MODES {
         for speed in [5.0, 500.0] {
             for (ghosts, stopper) in [(&[][..], 0), (&[0][..], 1), (&[0, 1][..], 2), (&[1], 0)] {
-                let what = format!("{resolution:?} at {speed} m/s, ghosts {ghosts:?}");
-                let plugin = CcdPlugin::default().with_hooks::<PassGhosts>();
-                let (x, targets, _) = through_walls(plugin, resolution, speed, ghosts, true);
-                // Stopped before the first wall that is not a ghost, hitting only that one.
-                let face = [0.5, 1.0, 1.5][stopper];
-                assert!(
-                    !targets.is_empty() && targets.iter().all(|&t| t == stopper),
-                    "{what}: hit {targets:?}"
-                );
-                assert!(x + R <= face && x + R > face - 0.1, "{what}: at {x}");
+                // Alone, and combined with a hook that accepts these walls.
+                for tuple in [false, true] {
+                    let what = format!("{resolution:?} at {speed} m/s, ghosts {ghosts:?}, {tuple}");
+                    let plugin = match tuple {
+                        false => CcdPlugin::default().with_hooks::<PassGhosts>(),
+                        true => CcdPlugin::default().with_hooks::<(OneWayPlatforms, PassGhosts)>(),
+                    };
+                    let (x, targets, _) = through_walls(plugin, resolution, speed, ghosts, true);
+                    // Stopped before the first wall that is not a ghost, hitting only that one.
+                    let face = [0.5, 1.0, 1.5][stopper];
+                    assert!(
+                        !targets.is_empty() && targets.iter().all(|&t| t == stopper),
+                        "{what}: hit {targets:?}"
+                    );
+                    assert!(x + R <= face && x + R > face - 0.1, "{what}: at {x}");
+                }
             }
         }
     }
