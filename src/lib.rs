@@ -49,10 +49,11 @@ pub mod debug {
 pub mod prelude {
     pub use crate::geometry::{Aabb, CastError, ShapeError};
     pub use crate::plugin::{
-        BodyMass, CastFilter, CastHit, CcdConfig, CcdDiagnostics, CcdEnabled, CcdError, CcdImpact,
-        CcdOutcome, CcdPlugin, CcdSchedule, CcdStartSchedule, CcdStepSystems, CcdSystems, Collider,
-        CollisionLayers, Friction, Hits, Resolution, Restitution, Slide, StaticCollider,
-        StaticQuery, StepPoses, Velocity,
+        BodyMass, CastFilter, CastHit, CcdConfig, CcdDiagnostics, CcdEnabled, CcdError, CcdHooks,
+        CcdImpact, CcdOutcome, CcdPlugin, CcdSchedule, CcdStartSchedule, CcdStepSystems,
+        CcdSystems, Collider, CollisionLayers, Friction, Hits, ImpactCandidate, OneWayPlatform,
+        OneWayPlatforms, Resolution, Restitution, Slide, StaticCollider, StaticQuery, StepPoses,
+        Velocity,
     };
     pub use glam::Vec2;
 }

@@ -19,7 +19,7 @@ use super::constants::{
     target_separation,
 };
 use super::cull::reach_interval;
-use super::math::Pose;
+use super::math::{Pose, left_perp};
 pub use super::pair::BodyState;
 use super::pair::{Contact, PairOutcome, contact_patch, pair_toi};
 use super::proxy::ShapeProxy;
@@ -80,6 +80,29 @@ pub struct ImpactRecord {
     pub point: Vec2,
     /// Unit normal from the target toward the body.
     pub normal: Vec2,
+}
+
+/// An impact [`solve_body_filtered`] is about to respond to, as its filter sees it: the
+/// earliest hit of a sweep, or, when that is at the sweep's start, each contact the body starts
+/// the sweep touching and is about to be responded to together with it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct CandidateHit {
+    /// Index of the target in the [`StaticSet`].
+    pub(crate) target: u32,
+    /// Index of the body's part that hits it (0 for a body that is its own collider).
+    pub(crate) part: u32,
+    /// Fraction of the whole step.
+    pub(crate) fraction: f32,
+    /// Contact point (world).
+    pub(crate) point: Vec2,
+    /// Unit normal from the target toward the body.
+    pub(crate) normal: Vec2,
+    /// The body's velocity at the point as it arrives (m/s): `v + w × r`.
+    pub(crate) velocity: Vec2,
+    /// The body started this sweep overlapping the target.
+    pub(crate) overlapping: bool,
+    /// Sub-steps spent before this impact.
+    pub(crate) substep: u32,
 }
 
 /// What the solver did with a body. The impacts themselves go to the list passed to
@@ -197,6 +220,7 @@ impl<F: Fn(usize, u32) -> bool> Parts for Many<F> {
 /// with the body's mass and inertia (`body`'s, the combined ones). `body.proxy` and
 /// `body.core_radius` are not used: the parts replace them (without parts, the body's own
 /// shape is its only part, as in [`solve_body`]).
+#[cfg(any(test, feature = "testing"))]
 pub fn solve_compound_body(
     body: &BodyState,
     compound: Compound<'_, impl Fn(usize, u32) -> bool>,
@@ -206,9 +230,35 @@ pub fn solve_compound_body(
     scratch: &mut Vec<u32>,
     impacts: &mut Vec<ImpactRecord>,
 ) -> BodyOutcome {
+    let accept_all = |_: &CandidateHit| true;
+    solve_compound_body_filtered(
+        body,
+        compound,
+        statics,
+        candidates,
+        settings,
+        scratch,
+        impacts,
+        &accept_all,
+    )
+}
+
+/// [`solve_compound_body`] with a filter on its impacts, as [`solve_body_filtered`]: a
+/// rejected (target, part) pair is ignored for the rest of the step.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn solve_compound_body_filtered(
+    body: &BodyState,
+    compound: Compound<'_, impl Fn(usize, u32) -> bool>,
+    statics: &StaticSet,
+    candidates: &[u32],
+    settings: &SolveSettings,
+    scratch: &mut Vec<u32>,
+    impacts: &mut Vec<ImpactRecord>,
+    accept: &impl Fn(&CandidateHit) -> bool,
+) -> BodyOutcome {
     let parts = &compound.parts[..compound.parts.len().min(MAX_PARTS)];
     if parts.is_empty() {
-        return solve_body(body, statics, candidates, settings, scratch, impacts);
+        return solve_body_filtered(body, statics, candidates, settings, scratch, impacts, accept);
     }
     let states = parts
         .iter()
@@ -223,7 +273,7 @@ pub fn solve_compound_body(
         states,
         interacts: compound.interacts,
     };
-    solve(body, &many, statics, candidates, settings, scratch, impacts)
+    solve(body, &many, statics, candidates, settings, scratch, impacts, accept)
 }
 
 /// Sweeps one body against the static world and resolves its impacts.
@@ -240,6 +290,9 @@ pub fn solve_compound_body(
 /// [`Resolution::Clamp`]. Every loop is bounded: [`MAX_SUBSTEPS`] sub-steps, and
 /// [`MAX_CONTACTS_AT_ONE_POSE`] responses in a row without advancing, after which the body is
 /// wedged: it stays where it is, at rest.
+///
+/// Every impact is accepted; the plugin calls [`solve_body_filtered`] with its hooks.
+#[cfg(any(test, feature = "testing"))]
 pub fn solve_body(
     body: &BodyState,
     statics: &StaticSet,
@@ -247,6 +300,33 @@ pub fn solve_body(
     settings: &SolveSettings,
     scratch: &mut Vec<u32>,
     impacts: &mut Vec<ImpactRecord>,
+) -> BodyOutcome {
+    let accept_all = |_: &CandidateHit| true;
+    solve_body_filtered(
+        body,
+        statics,
+        candidates,
+        settings,
+        scratch,
+        impacts,
+        &accept_all,
+    )
+}
+
+/// [`solve_body`] with a filter on its impacts: `accept` sees each impact before the body is
+/// responded to (see [`CandidateHit`]); a target it rejects is ignored by this body for the
+/// rest of the step, every sub-step included, as Box2D's `b2PreContinuousFcn` disables the
+/// pair, and the sweep is searched again without it. Only impacts are filtered, never pairs
+/// in the search, so a filter costs nothing until a body hits something.
+#[inline]
+pub(crate) fn solve_body_filtered(
+    body: &BodyState,
+    statics: &StaticSet,
+    candidates: &[u32],
+    settings: &SolveSettings,
+    scratch: &mut Vec<u32>,
+    impacts: &mut Vec<ImpactRecord>,
+    accept: &impl Fn(&CandidateHit) -> bool,
 ) -> BodyOutcome {
     solve(
         body,
@@ -256,6 +336,7 @@ pub fn solve_body(
         settings,
         scratch,
         impacts,
+        accept,
     )
 }
 
@@ -269,8 +350,9 @@ fn parts_reach(parts: &impl Parts, center: Vec2) -> f32 {
     reach
 }
 
-/// [`solve_body`] over the parts of a body.
+/// [`solve_body_filtered`] over the parts of a body.
 #[inline(always)]
+#[allow(clippy::too_many_arguments)]
 fn solve(
     body: &BodyState,
     parts: &impl Parts,
@@ -279,6 +361,7 @@ fn solve(
     settings: &SolveSettings,
     scratch: &mut Vec<u32>,
     impacts: &mut Vec<ImpactRecord>,
+    accept: &impl Fn(&CandidateHit) -> bool,
 ) -> BodyOutcome {
     let slop = settings.linear_slop;
     let dt = settings.dt;
@@ -307,6 +390,9 @@ fn solve(
     // points the response used.
     let mut known: SmallVec<[KnownPatch; MAX_CONTACTS]> = SmallVec::new();
     let mut first = true;
+    // (Target, part) pairs `accept` rejected: skipped for the rest of the step. Each search
+    // again after a rejection adds one, so they are bounded by the candidates.
+    let mut vetoed: SmallVec<[(u32, u32); 4]> = SmallVec::new();
     loop {
         let list: &[u32] = if first {
             candidates
@@ -376,7 +462,7 @@ fn solve(
         }
         let visits = if short { ordered } else { list.len() * n };
         // Earliest hit; ties go to the lowest target index, then the lowest part.
-        let mut best: Option<(f32, u32, u32, Contact, bool)> = None;
+        let mut best: Option<(f32, u32, u32, Contact, bool, bool)> = None;
         let mut failed: Option<(f32, ToiFailure)> = None;
         // Every target the body touches at the start of the sweep: once it drives into one,
         // they are responded to together (a body in a corner).
@@ -392,6 +478,9 @@ fn solve(
                 }
                 ((0.0, 1.0), index, part as u32)
             };
+            if !vetoed.is_empty() && vetoed.contains(&(index, part)) {
+                continue;
+            }
             let (Some(target), Some(frame)) = (
                 statics.items().get(index as usize),
                 statics
@@ -454,11 +543,11 @@ fn solve(
                     touch,
                 } => {
                     result.started_overlapping |= overlapping && first;
-                    let earlier = |b: (f32, u32, u32, Contact, bool)| {
+                    let earlier = |b: (f32, u32, u32, Contact, bool, bool)| {
                         fraction < b.0 || (fraction == b.0 && (index, part) < (b.1, b.2))
                     };
                     if best.is_none_or(earlier) {
-                        best = Some((fraction, index, part, contact, touch.is_some()));
+                        best = Some((fraction, index, part, contact, touch.is_some(), overlapping));
                     }
                     if let Some(contact) = touch
                         && touching.len() < MAX_CONTACTS
@@ -492,6 +581,40 @@ fn solve(
             velocity = (Vec2::ZERO, 0.0);
             break;
         }
+        if let Some((fraction, index, part, hit, _, overlapping)) = best {
+            // The contacts the body is about to be responded to, each put to the filter (a
+            // start contact overlaps its target when its separation is negative, see
+            // `pair_toi`); rejected ones are skipped and the sweep searched again.
+            let contacts = if fraction == 0.0 {
+                &touching[..]
+            } else {
+                &[(index, part, hit)][..]
+            };
+            let center = sweep.center_at(fraction);
+            let before = vetoed.len();
+            for &(target, target_part, contact) in contacts {
+                let candidate = CandidateHit {
+                    target,
+                    part: target_part,
+                    fraction: step_start + fraction * (1.0 - step_start),
+                    point: contact.point,
+                    normal: -contact.normal,
+                    velocity: velocity.0 + velocity.1 * left_perp(contact.point - center),
+                    overlapping: if (target, target_part) == (index, part) {
+                        overlapping
+                    } else {
+                        contact.separation < 0.0
+                    },
+                    substep: result.substeps,
+                };
+                if !accept(&candidate) {
+                    vetoed.push((target, target_part));
+                }
+            }
+            if vetoed.len() > before {
+                continue;
+            }
+        }
         first = false;
         if let Some((fraction, failure)) = failed {
             // A failed query clamps the body at the last time known to be clear.
@@ -503,7 +626,7 @@ fn solve(
                 break;
             }
         }
-        let Some((fraction, index, part, hit, resting)) = best else {
+        let Some((fraction, index, part, hit, resting, _)) = best else {
             result.position = sweep.pose_at(1.0).p;
             result.angle = sweep.a1;
             break;
@@ -1044,6 +1167,52 @@ mod tests {
             (out.position.x - 0.5 + 0.2 - 2.0).abs() < 2.0 * crate::geometry::LINEAR_SLOP,
             "{out:?}"
         );
+    }
+
+    /// A target the filter rejects is asked about once and ignored for the rest of the step,
+    /// every sub-step included: a ball bouncing (restitution 1) between two kept walls passes
+    /// the rejected wall between them both ways, asked only the first time.
+    #[test]
+    fn a_rejected_target_is_ignored_for_the_rest_of_the_step() {
+        let wall = |x: f32| StaticItem {
+            proxy: Shape::from(Polygon::rectangle(0.005, 1.0).unwrap()).proxy(),
+            position: Vec2::new(x, 0.0),
+            angle: 0.0,
+        };
+        let mut statics = StaticSet::default();
+        // Target 0 (rejected) at x = 1, kept targets 1 at x = 1.5 and 2 at x = 0.5.
+        statics.rebuild([wall(1.0), wall(1.5), wall(0.5)]);
+        let ball = Shape::from(Circle::new(0.1).unwrap()).proxy();
+        let mut body = moving(ball, Vec2::new(1.25, 0.0), 0.0, Vec2::new(120.0, 0.0), 0.0);
+        body.restitution = 1.0;
+        let settings = SolveSettings {
+            mode: Resolution::SubStep { max_substeps: 8 },
+            linear_slop: crate::geometry::LINEAR_SLOP,
+            dt: 1.0 / 60.0,
+        };
+        let asked = core::cell::RefCell::new(Vec::new());
+        let accept = |hit: &CandidateHit| {
+            asked.borrow_mut().push(hit.target);
+            hit.target != 0
+        };
+        let mut impacts = Vec::new();
+        let out = solve_body_filtered(
+            &body,
+            &statics,
+            &[0, 1, 2],
+            &settings,
+            &mut Vec::new(),
+            &mut impacts,
+            &accept,
+        );
+        // 2 m a step: 0.145 m to wall 1, 0.79 m back to wall 2 through wall 0 (asked), 0.79 m
+        // to wall 1 again through wall 0 (not asked), 0.275 m back.
+        assert_eq!(asked.into_inner(), [1, 0, 2, 1], "{out:?}");
+        let targets: Vec<u32> = impacts.iter().map(|i| i.target).collect();
+        assert_eq!(targets, [1, 2, 1], "{out:?}");
+        // Without the filter, wall 0 stops it on the way back.
+        let out = solve(&body, &statics, settings.mode);
+        assert!(out.position.x > 1.0, "{out:?}");
     }
 
     #[test]

@@ -16,6 +16,7 @@ pub(crate) mod debug;
 mod diagnostics;
 mod gather;
 mod hierarchy;
+mod hooks;
 mod impacts;
 mod layers;
 #[cfg(any(test, feature = "testing"))]
@@ -36,6 +37,7 @@ use bevy_app::{FixedFirst, FixedPostUpdate};
 use bevy_ecs::intern::Interned;
 use bevy_ecs::prelude::*;
 use bevy_ecs::schedule::{ScheduleLabel, SingleThreadedExecutor};
+use bevy_ecs::system::SystemParamItem;
 use bevy_time::{Fixed, Time};
 
 pub use crate::geometry::Resolution;
@@ -46,6 +48,7 @@ pub use components::{
 pub use config::CcdConfig;
 pub use diagnostics::CcdDiagnostics;
 pub use hierarchy::MAX_HIERARCHY_DEPTH;
+pub use hooks::{CcdHooks, ImpactCandidate, OneWayPlatform, OneWayPlatforms};
 pub use layers::CollisionLayers;
 pub use outcome::{CcdError, CcdImpact, CcdOutcome, Hits};
 pub use query::{CastFilter, CastHit, Slide, StaticQuery};
@@ -100,6 +103,8 @@ use workspace::CcdWorkspace;
 pub struct CcdPlugin {
     start_schedule: Interned<dyn ScheduleLabel>,
     schedule: Interned<dyn ScheduleLabel>,
+    /// Adds the solve system, made for the hooks ([`CcdPlugin::with_hooks`]).
+    add_solve: fn(&mut App),
 }
 
 impl CcdPlugin {
@@ -110,8 +115,28 @@ impl CcdPlugin {
         Self {
             start_schedule: start_schedule.intern(),
             schedule: schedule.intern(),
+            add_solve: add_solve::<()>,
         }
     }
+
+    /// The plugin with `H` asked about every impact before a body is stopped by it (see
+    /// [`CcdHooks`]; combine several as a tuple). Without it, every impact is accepted and the
+    /// solve is the same code as with no hooks at all.
+    pub fn with_hooks<H: CcdHooks + 'static>(mut self) -> Self
+    where
+        for<'w, 's> SystemParamItem<'w, 's, H>: CcdHooks,
+    {
+        self.add_solve = add_solve::<H>;
+        self
+    }
+}
+
+/// Adds the solve system with hooks `H` to [`CcdSchedule`].
+fn add_solve<H: CcdHooks + 'static>(app: &mut App)
+where
+    for<'w, 's> SystemParamItem<'w, 's, H>: CcdHooks,
+{
+    app.add_systems(CcdSchedule, solve::solve::<H>.in_set(CcdStepSystems::Solve));
 }
 
 impl Default for CcdPlugin {
@@ -188,7 +213,8 @@ impl Plugin for CcdPlugin {
             .register_type::<BodyMass>()
             .register_type::<CollisionLayers>()
             .register_type::<CastFilter>()
-            .register_type::<CastHit>();
+            .register_type::<CastHit>()
+            .register_type::<OneWayPlatform>();
         for label in [CcdStartSchedule.intern(), CcdSchedule.intern()] {
             app.init_schedule(label);
             app.edit_schedule(label, |schedule| {
@@ -222,10 +248,10 @@ impl Plugin for CcdPlugin {
                     .in_set(CcdStepSystems::RecordEnd)
                     .after(record::record_end),
                 statics::update_statics.in_set(CcdStepSystems::UpdateStatics),
-                solve::solve.in_set(CcdStepSystems::Solve),
                 impacts::send_impacts.in_set(CcdStepSystems::Impacts),
             ),
         );
+        (self.add_solve)(app);
     }
 }
 

@@ -5,12 +5,14 @@
 //! ([`write_lane`]), the lanes handed out by [`hand_out`].
 
 use bevy_ecs::prelude::*;
-use bevy_ecs::system::SystemChangeTick;
+use bevy_ecs::system::{StaticSystemParam, SystemChangeTick, SystemParamItem};
 use bevy_time::{Fixed, Time};
 use glam::Vec2;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use super::compound::Compounds;
 use super::gather::{GROUP_MIN_BODIES, Gather, ListQuery, Listing, list_bodies};
+use super::hooks::{CcdHooks, ask};
 use super::outcome::CcdError;
 use super::parallel::{MAX_ITEMS, hand_out, pool, workers};
 use super::record::step_length;
@@ -24,8 +26,8 @@ use super::{
 };
 use crate::geometry::constants::MAX_SUBSTEPS;
 use crate::geometry::{
-    self, BodyOutcome, BodyState, Compound, ShapeProxy, SolveSettings, StaticSet, solve_body,
-    solve_compound_body,
+    self, BodyOutcome, BodyState, CandidateHit, Compound, ShapeProxy, SolveSettings, StaticSet,
+    solve_body_filtered, solve_compound_body_filtered,
 };
 
 /// Lanes per worker: enough that workers finish together when bodies cost unevenly.
@@ -49,8 +51,11 @@ const SOLVE_BATCH: usize = 16;
 /// too and writes each finished one back between its own. Each body depends only on itself
 /// and the statics, and component writes commute (one body, one lane), so the results are
 /// the same bits on any number of threads; the messages keep the listing order
-/// ([`send_impacts`](super::impacts::send_impacts)).
-pub(crate) fn solve(
+/// ([`send_impacts`](super::impacts::send_impacts)). `hooks` are asked about each impact
+/// ([`CcdHooks`]); `()`, the default, accepts all.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn solve<H: CcdHooks + 'static>(
+    hooks: StaticSystemParam<H>,
     config: Res<CcdConfig>,
     time: Option<Res<Time<Fixed>>>,
     mut workspace: ResMut<CcdWorkspace>,
@@ -58,7 +63,9 @@ pub(crate) fn solve(
     (ticks, compounds): (SystemChangeTick, Res<Compounds>),
     mut queries: ParamSet<(ListQuery, WriteQuery)>,
     colliders: Query<&Collider, Without<StaticCollider>>,
-) {
+) where
+    for<'w, 's> SystemParamItem<'w, 's, H>: CcdHooks,
+{
     let dt = step_length(&config, time.as_deref());
     let workspace = workspace.as_mut();
     // Whatever this run writes carries this tick: a `Transform` not changed after it is
@@ -126,6 +133,11 @@ pub(crate) fn solve(
         grouping: most >= GROUP_MIN_BODIES && statics.bvh().walks_groups(),
         static_layers,
     };
+    let hooks = &*hooks;
+    let hook_panicked = AtomicBool::new(false);
+    let accept = |body: Entity, collider: Entity, hit: &CandidateHit| {
+        ask(hooks, &targets, &hook_panicked, (body, collider), hit)
+    };
     let mut listed = 0;
     let (all, listed_out, listing_out) = (&mut entries[..], &mut listed, &mut listing);
     hand_out(
@@ -148,6 +160,7 @@ pub(crate) fn solve(
                     static_layers,
                     compounds,
                     settings: &settings,
+                    accept: &accept,
                 };
                 solve_lane(chunk, lane, &shared, &colliders);
             },
@@ -157,6 +170,11 @@ pub(crate) fn solve(
         },
     );
     entries.truncate(listed);
+    if hook_panicked.load(Ordering::Relaxed) {
+        workspace.warn_once(Warned::HOOK_PANIC, || {
+            "a CcdHooks::accept_impact panicked: its impacts were kept".into()
+        });
+    }
     if listing.clamped & Warned::RESTITUTION != 0 {
         workspace.warn_once(Warned::RESTITUTION, || {
             "a Restitution outside [0, 1] was clamped into it".into()
@@ -209,6 +227,9 @@ pub(crate) struct Shared<'a> {
     pub(crate) static_layers: &'a [CollisionLayers],
     pub(crate) compounds: &'a Compounds,
     pub(crate) settings: &'a SolveSettings,
+    /// The hooks' verdict on an impact of a body (entity, collider): a call through a
+    /// pointer only at an impact, never per pair.
+    pub(crate) accept: &'a (dyn Fn(Entity, Entity, &CandidateHit) -> bool + Sync),
 }
 
 /// Stores what the solver did with a body in its entry.
@@ -277,7 +298,12 @@ fn solve_compound(
     };
     let state = state(body, parts[0].proxy, parts[0].core_radius);
     body.impacts = impacts.len() as u32;
-    let outcome = solve_compound_body(
+    let entry: &BodyEntry = body;
+    let accept = |hit: &CandidateHit| {
+        let collider = shared.compounds.collider(entry, hit.part);
+        (shared.accept)(entry.entity, collider, hit)
+    };
+    let outcome = solve_compound_body_filtered(
         &state,
         compound,
         shared.statics,
@@ -285,6 +311,7 @@ fn solve_compound(
         shared.settings,
         scratch,
         impacts,
+        &accept,
     );
     store(body, outcome);
 }
@@ -297,7 +324,7 @@ pub(crate) fn solve_lane(
     shared: &Shared,
     colliders: &Query<&Collider, Without<StaticCollider>>,
 ) {
-    let (statics, settings) = (shared.statics, shared.settings);
+    let statics = shared.statics;
     let Lane {
         candidates,
         impacts,
@@ -358,7 +385,17 @@ pub(crate) fn solve_lane(
             let start = body.candidates as usize;
             let list = &candidates[start..start + body.candidate_count as usize];
             body.impacts = impacts.len() as u32;
-            let outcome = solve_body(&state, statics, list, settings, scratch, impacts);
+            let entry: &BodyEntry = body;
+            let accept = |hit: &CandidateHit| (shared.accept)(entry.entity, entry.entity, hit);
+            let outcome = solve_body_filtered(
+                &state,
+                shared.statics,
+                list,
+                shared.settings,
+                scratch,
+                impacts,
+                &accept,
+            );
             store(body, outcome);
         }
     }

@@ -70,8 +70,13 @@ use crate::geometry::{Aabb, LINEAR_SLOP};
 /// An app with the time and CCD plugins where every `update` runs exactly one fixed step of
 /// `timestep` seconds, whatever its length.
 pub fn headless_app(timestep: f64) -> App {
+    headless_app_with(timestep, CcdPlugin::default())
+}
+
+/// [`headless_app`] with the given plugin (hooks, schedules).
+pub fn headless_app_with(timestep: f64, plugin: CcdPlugin) -> App {
     let mut app = App::new();
-    app.add_plugins((TimePlugin, CcdPlugin::default()));
+    app.add_plugins((TimePlugin, plugin));
     let step = Duration::from_secs_f64(timestep);
     app.insert_resource(Time::<Fixed>::from_duration(step));
     app.insert_resource(TimeUpdateStrategy::FixedTimesteps(1));

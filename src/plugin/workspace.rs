@@ -143,6 +143,7 @@ impl Warned {
     pub(crate) const RESTITUTION: u8 = 2;
     pub(crate) const FRICTION: u8 = 4;
     pub(crate) const SUBSTEPS: u8 = 8;
+    pub(crate) const HOOK_PANIC: u8 = 16;
 }
 
 impl CcdWorkspace {
