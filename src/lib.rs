@@ -42,10 +42,10 @@ pub use plugin::testing;
 pub mod prelude {
     pub use crate::geometry::{Aabb, ShapeError};
     pub use crate::plugin::{
-        BodyMass, CcdConfig, CcdDiagnostics, CcdEnabled, CcdError, CcdImpact, CcdOutcome,
-        CcdPlugin, CcdSchedule, CcdStartSchedule, CcdStepSystems, CcdSystems, Collider,
-        CollisionLayers, Friction, Hits, Resolution, Restitution, StaticCollider, StepPoses,
-        Velocity,
+        BodyMass, CcdConfig, CcdDiagnostics, CcdEnabled, CcdError, CcdEvents, CcdHit, CcdImpact,
+        CcdOutcome, CcdPlugin, CcdSchedule, CcdSensorCrossing, CcdSensorEntered, CcdSensorExited,
+        CcdStartSchedule, CcdStepSystems, CcdSystems, Collider, CollisionLayers, Friction, Hits,
+        Resolution, Restitution, Sensor, StaticCollider, StepPoses, Velocity,
     };
     pub use glam::Vec2;
 }

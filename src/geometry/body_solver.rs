@@ -23,6 +23,7 @@ use super::math::Pose;
 pub use super::pair::BodyState;
 use super::pair::{Contact, PairOutcome, contact_patch, pair_toi};
 use super::response::{Response, patch_response};
+use super::sensor::PathPiece;
 use super::static_set::{StaticSet, TargetRecord};
 use super::sweep::Sweep;
 use super::toi::{BodyFrame, ToiFailure};
@@ -125,6 +126,7 @@ const ORDERED_TARGETS: usize = 32;
 /// [`Resolution::Clamp`]. Every loop is bounded: [`MAX_SUBSTEPS`] sub-steps, and
 /// [`MAX_CONTACTS_AT_ONE_POSE`] responses in a row without advancing, after which the body is
 /// wedged: it stays where it is, at rest.
+#[inline]
 pub fn solve_body(
     body: &BodyState,
     statics: &StaticSet,
@@ -132,6 +134,20 @@ pub fn solve_body(
     settings: &SolveSettings,
     scratch: &mut Vec<u32>,
     impacts: &mut Vec<ImpactRecord>,
+) -> BodyOutcome {
+    solve_body_traced(body, statics, candidates, settings, scratch, impacts, None)
+}
+
+/// [`solve_body`], also appending to `path` (when given) each stretch of the step the body
+/// travelled, in order ([`PathPiece`]): what sensors are swept along.
+pub(crate) fn solve_body_traced(
+    body: &BodyState,
+    statics: &StaticSet,
+    candidates: &[u32],
+    settings: &SolveSettings,
+    scratch: &mut Vec<u32>,
+    impacts: &mut Vec<ImpactRecord>,
+    mut path: Option<&mut Vec<PathPiece>>,
 ) -> BodyOutcome {
     let slop = settings.linear_slop;
     let dt = settings.dt;
@@ -315,15 +331,19 @@ pub fn solve_body(
                 result.position = pose.p;
                 result.angle = sweep.angle_at(fraction);
                 result.failure = Some(failure);
+                let to = step_start + fraction * (1.0 - step_start);
+                trace(&mut path, &sweep, fraction, step_start, to);
                 break;
             }
         }
         let Some((fraction, index, hit, resting)) = best else {
+            trace(&mut path, &sweep, 1.0, step_start, 1.0);
             result.position = sweep.pose_at(1.0).p;
             result.angle = sweep.a1;
             break;
         };
         let step_fraction = step_start + fraction * (1.0 - step_start);
+        trace(&mut path, &sweep, fraction, step_start, step_fraction);
         let contacts = if fraction == 0.0 {
             &touching[..]
         } else {
@@ -446,6 +466,21 @@ pub fn solve_body(
         result.velocity = Some(velocity);
     }
     result
+}
+
+/// Appends to `path`, when given, the part `[0, u]` of `sweep`, which covers the fractions
+/// `[from, to]` of the step.
+#[inline]
+fn trace(path: &mut Option<&mut Vec<PathPiece>>, sweep: &Sweep, u: f32, from: f32, to: f32) {
+    if let Some(path) = path {
+        let sweep = if u == 1.0 {
+            *sweep
+        } else {
+            let (c, a) = (sweep.center_at(u), sweep.angle_at(u));
+            Sweep::new(sweep.local_center, sweep.c0, sweep.a0, c, a)
+        };
+        path.push(PathPiece { sweep, from, to });
+    }
 }
 
 #[cfg(test)]

@@ -16,6 +16,7 @@ mod math;
 mod pair;
 mod proxy;
 mod response;
+pub(crate) mod sensor;
 mod shape;
 pub(crate) mod static_set;
 mod sweep;
@@ -24,7 +25,9 @@ mod test_support;
 mod toi;
 
 pub use body_solver::Resolution;
-pub(crate) use body_solver::{BodyState, ImpactRecord, SolveSettings, solve_body};
+pub(crate) use body_solver::{
+    BodyState, ImpactRecord, SolveSettings, solve_body, solve_body_traced,
+};
 pub use bvh::{Bvh, QUERY_GROUP};
 pub use constants::{
     LINEAR_SLOP, MAX_POLYGON_VERTICES, MAX_WORLD_COORDINATE, SLOP_PER_COORDINATE_SPACING,

@@ -11,6 +11,7 @@ mod arena;
 mod components;
 mod config;
 mod diagnostics;
+mod events;
 mod gather;
 mod impacts;
 mod layers;
@@ -19,6 +20,7 @@ mod level_check;
 mod outcome;
 mod parallel;
 mod record;
+mod sensors;
 mod solve;
 mod statics;
 #[cfg(any(test, feature = "testing"))]
@@ -40,8 +42,10 @@ pub use components::{
 };
 pub use config::CcdConfig;
 pub use diagnostics::CcdDiagnostics;
+pub use events::{CcdEvents, CcdHit, CcdSensorEntered, CcdSensorExited};
 pub use layers::CollisionLayers;
 pub use outcome::{CcdError, CcdImpact, CcdOutcome, Hits};
+pub use sensors::{CcdSensorCrossing, Sensor};
 use workspace::CcdWorkspace;
 
 /// Continuous collision detection for bodies moved by the user's own code.
@@ -58,7 +62,8 @@ use workspace::CcdWorkspace;
 ///                  CcdStepSystems::Solve         per body: swept-bound query, bilateral
 ///                                                advancement, clamp or sub-step; write
 ///                                                `Transform`, `Velocity`, `CcdOutcome`
-///                  CcdStepSystems::Impacts       send the `CcdImpact` messages
+///                  CcdStepSystems::Impacts       send the `CcdImpact` and `CcdSensorCrossing`
+///                                                messages; trigger the entity events
 /// ```
 ///
 /// Put your movement systems in `FixedUpdate`, or anywhere between [`CcdSystems::RecordStart`]
@@ -165,8 +170,11 @@ impl Plugin for CcdPlugin {
         app.init_resource::<CcdConfig>()
             .init_resource::<CcdWorkspace>()
             .init_resource::<CcdDiagnostics>()
+            .init_resource::<sensors::SensorWorld>()
+            .init_resource::<events::Listeners>()
             .init_resource::<Time<Fixed>>()
             .add_message::<CcdImpact>()
+            .add_message::<CcdSensorCrossing>()
             .register_type::<CcdConfig>()
             .register_type::<CcdDiagnostics>()
             .register_type::<Collider>()
@@ -178,7 +186,9 @@ impl Plugin for CcdPlugin {
             .register_type::<Restitution>()
             .register_type::<Friction>()
             .register_type::<BodyMass>()
-            .register_type::<CollisionLayers>();
+            .register_type::<CollisionLayers>()
+            .register_type::<Sensor>()
+            .register_type::<CcdEvents>();
         for label in [CcdStartSchedule.intern(), CcdSchedule.intern()] {
             app.init_schedule(label);
             app.edit_schedule(label, |schedule| {
@@ -210,7 +220,16 @@ impl Plugin for CcdPlugin {
                 record::record_end.in_set(CcdStepSystems::RecordEnd),
                 statics::update_statics.in_set(CcdStepSystems::UpdateStatics),
                 solve::solve.in_set(CcdStepSystems::Solve),
-                impacts::send_impacts.in_set(CcdStepSystems::Impacts),
+                sensors::update_sensors
+                    .in_set(CcdStepSystems::UpdateStatics)
+                    .after(statics::update_statics),
+                (
+                    impacts::send_impacts,
+                    sensors::send_crossings,
+                    events::trigger_events,
+                )
+                    .chain()
+                    .in_set(CcdStepSystems::Impacts),
             ),
         );
     }
@@ -251,6 +270,7 @@ pub enum CcdStepSystems {
     /// [`Velocity`] and [`CcdOutcome`]; in one parallel region, each lane of bodies queried
     /// and solved by one thread, so that its candidates are still in that core's cache.
     Solve,
-    /// Sends the [`CcdImpact`] messages.
+    /// Sends the [`CcdImpact`] and [`CcdSensorCrossing`] messages, and triggers the entity
+    /// events ([`CcdEvents`]), which observers see when the schedule's commands are applied.
     Impacts,
 }

@@ -13,13 +13,16 @@ use super::gather::{GROUP_MIN_BODIES, Gather, ListQuery, Listing, list_bodies};
 use super::outcome::CcdError;
 use super::parallel::{MAX_ITEMS, hand_out, pool, workers};
 use super::record::step_length;
+use super::sensors::{SensorWorld, sense_lane};
 use super::workspace::{
     BodyEntry, CcdWorkspace, HAS_MASS, HAS_VELOCITY, Lane, NUDGED, OVERLAPPING, WAS_CLEAR, Warned,
 };
 use super::write::{WriteQuery, write_lane};
 use super::{CcdConfig, CcdDiagnostics, Collider, Resolution, StaticCollider, StepPoses};
 use crate::geometry::constants::MAX_SUBSTEPS;
-use crate::geometry::{self, BodyState, ShapeProxy, SolveSettings, StaticSet, solve_body};
+use crate::geometry::{
+    self, BodyState, ShapeProxy, SolveSettings, StaticSet, solve_body, solve_body_traced,
+};
 
 /// Lanes per worker: enough that workers finish together when bodies cost unevenly.
 const LANES_PER_WORKER: usize = 16;
@@ -51,6 +54,7 @@ pub(crate) fn solve(
     ticks: SystemChangeTick,
     mut queries: ParamSet<(ListQuery, WriteQuery)>,
     colliders: Query<&Collider, Without<StaticCollider>>,
+    sensors: Res<SensorWorld>,
 ) {
     let dt = step_length(&config, time.as_deref());
     let workspace = workspace.as_mut();
@@ -89,6 +93,8 @@ pub(crate) fn solve(
         ..
     } = workspace;
     let (statics, static_entities): (&StaticSet, &[Entity]) = (statics, static_entities);
+    // Checked once a step: without sensors no path is recorded.
+    let sensors = sensors.any().then_some(&*sensors);
     // Filled by index, not pushed, so that the lanes already listed can be handed out while
     // the rest is listed; in the steady state the length is already right and this writes
     // nothing. Exactly as many as can be gathered, so that the buffer does not double past
@@ -127,7 +133,7 @@ pub(crate) fn solve(
         (
             |(chunk, lane): &mut (&mut [BodyEntry], &mut Lane)| gather.lane(chunk, lane),
             |(chunk, lane): &mut (&mut [BodyEntry], &mut Lane)| {
-                solve_lane(chunk, lane, statics, &settings, &colliders);
+                solve_lane(chunk, lane, statics, &settings, &colliders, sensors);
             },
         ),
         |queries, (chunk, lane)| write_lane(chunk, lane, &mut queries.p1(), static_entities),
@@ -186,6 +192,7 @@ pub(crate) fn solve_lane(
     statics: &StaticSet,
     settings: &SolveSettings,
     colliders: &Query<&Collider, Without<StaticCollider>>,
+    sensors: Option<&SensorWorld>,
 ) {
     let Lane {
         candidates,
@@ -193,6 +200,7 @@ pub(crate) fn solve_lane(
         hit,
         visit,
         scratch,
+        sensing,
     } = lane;
     impacts.clear();
     hit.clear();
@@ -251,7 +259,25 @@ pub(crate) fn solve_lane(
             let start = body.candidates as usize;
             let list = &candidates[start..start + body.candidate_count as usize];
             body.impacts = impacts.len() as u32;
-            let outcome = solve_body(&state, statics, list, settings, scratch, impacts);
+            let outcome = if sensors.is_some() {
+                // The path the body travels, for its sensors.
+                let path = &mut sensing.path;
+                let start = path.len();
+                let outcome = solve_body_traced(
+                    &state,
+                    statics,
+                    list,
+                    settings,
+                    scratch,
+                    impacts,
+                    Some(&mut *path),
+                );
+                let count = (path.len() - start) as u32;
+                sensing.paths.push((index as u32, start as u32, count));
+                outcome
+            } else {
+                solve_body(&state, statics, list, settings, scratch, impacts)
+            };
             body.position = outcome.position;
             body.angle = outcome.angle;
             if let Some((v, w)) = outcome.velocity {
@@ -271,6 +297,10 @@ pub(crate) fn solve_lane(
         }
     }
     core::hint::black_box(touched);
+    if let Some(sensors) = sensors {
+        sense_lane(chunk, lane, sensors, colliders, settings.linear_slop);
+    }
+    let Lane { hit, visit, .. } = lane;
     // The bodies the write-back must visit, and those with impact messages. Every other
     // body was clear before and is clear now, at its end pose: `record_end` already wrote
     // its resolved pose, and its components stay as they are.

@@ -7,7 +7,7 @@ use bevy_transform::components::Transform;
 
 use super::components::pose_of;
 use super::workspace::CcdWorkspace;
-use super::{CcdConfig, CcdDiagnostics, Collider, CollisionLayers, StaticCollider};
+use super::{CcdConfig, CcdDiagnostics, Collider, CollisionLayers, Sensor, StaticCollider};
 use crate::geometry::{self, Aabb, Pose, StaticItem};
 
 /// What [`update_statics`] reads of the world.
@@ -22,9 +22,9 @@ pub(crate) struct StaticWatch<'w, 's> {
             &'static Transform,
             Option<&'static CollisionLayers>,
         ),
-        With<StaticCollider>,
+        (With<StaticCollider>, Without<Sensor>),
     >,
-    moved: Query<'w, 's, (), (With<StaticCollider>, Changed<Transform>)>,
+    moved: Query<'w, 's, (), (With<StaticCollider>, Without<Sensor>, Changed<Transform>)>,
     is_static: Query<'w, 's, (), With<StaticCollider>>,
     lost_transform: RemovedComponents<'w, 's, Transform>,
 }

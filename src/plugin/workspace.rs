@@ -8,6 +8,7 @@ use glam::Vec2;
 
 use super::CollisionLayers;
 use super::outcome::CcdError;
+use super::sensors::SensorLane;
 use crate::geometry::{self, ImpactRecord, StaticSet};
 
 /// One CCD body of this step: what the solver needs, then what it did.
@@ -76,6 +77,8 @@ pub(crate) struct Lane {
     /// with impacts, errors or overlaps, and those whose outcome was not clear before.
     pub(crate) visit: Vec<u32>,
     pub(crate) scratch: Vec<u32>,
+    /// The paths and crossings of the lane's bodies, when the world has sensors.
+    pub(crate) sensing: SensorLane,
 }
 
 impl Lane {
@@ -84,6 +87,7 @@ impl Lane {
             + self.impacts.capacity() * size_of::<ImpactRecord>()
             + (self.hit.capacity() + self.visit.capacity() + self.scratch.capacity())
                 * size_of::<u32>()
+            + self.sensing.bytes()
     }
 }
 
