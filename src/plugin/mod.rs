@@ -170,7 +170,6 @@ impl Plugin for CcdPlugin {
         app.init_resource::<CcdConfig>()
             .init_resource::<CcdWorkspace>()
             .init_resource::<CcdDiagnostics>()
-            .init_resource::<sensors::SensorWorld>()
             .init_resource::<events::Listeners>()
             .init_resource::<Time<Fixed>>()
             .add_message::<CcdImpact>()

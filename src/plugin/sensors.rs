@@ -4,6 +4,7 @@
 
 use bevy_ecs::lifecycle::HookContext;
 use bevy_ecs::prelude::*;
+use bevy_ecs::system::SystemParam;
 use bevy_ecs::world::DeferredWorld;
 use bevy_reflect::prelude::*;
 use bevy_transform::components::Transform;
@@ -86,8 +87,8 @@ pub struct CcdSensorCrossing {
 }
 
 /// The sensors, in a hierarchy apart from the solid targets: bodies are never swept against
-/// them, only their travelled paths are.
-#[derive(Resource, Default)]
+/// them, only their travelled paths are. Kept in the [`CcdWorkspace`].
+#[derive(Default)]
 pub(crate) struct SensorWorld {
     pub(crate) set: StaticSet,
     /// The entity of each sensor (sensor `i` is the `i`-th in entity order).
@@ -128,22 +129,40 @@ impl SensorLane {
     }
 }
 
+/// A sensor: a [`StaticCollider`] with [`Sensor`].
+type IsSensor = (With<Sensor>, With<StaticCollider>);
+
+/// What [`update_sensors`] reads of the world.
+#[derive(SystemParam)]
+pub(crate) struct SensorWatch<'w, 's> {
+    all: Query<
+        'w,
+        's,
+        (
+            Entity,
+            &'static Collider,
+            &'static Transform,
+            Option<&'static CollisionLayers>,
+        ),
+        IsSensor,
+    >,
+    moved: Query<'w, 's, (), (IsSensor, Changed<Transform>)>,
+    stray: Query<'w, 's, Entity, (With<Sensor>, Without<StaticCollider>)>,
+}
+
 /// [`CcdStepSystems::UpdateStatics`](super::CcdStepSystems::UpdateStatics), after the solid
 /// hierarchy: rebuilds the sensors' when that one was rebuilt or a sensor moved. Sensors are in
 /// entity order, so every crossing list is deterministic. A sensor reaching beyond the
 /// coordinate limit is ignored with a warning, as a static is.
 pub(crate) fn update_sensors(
     config: Res<CcdConfig>,
-    workspace: Res<CcdWorkspace>,
-    mut sensors: ResMut<SensorWorld>,
-    all: Query<
-        (Entity, &Collider, &Transform, Option<&CollisionLayers>),
-        (With<Sensor>, With<StaticCollider>),
-    >,
-    moved: Query<(), (With<Sensor>, With<StaticCollider>, Changed<Transform>)>,
-    stray: Query<Entity, (With<Sensor>, Without<StaticCollider>)>,
+    mut workspace: ResMut<CcdWorkspace>,
+    watch: SensorWatch,
 ) {
-    if sensors.built_at == Some(workspace.rebuilds) && moved.is_empty() {
+    let SensorWatch { all, moved, stray } = watch;
+    let rebuilds = workspace.rebuilds;
+    let sensors = &mut workspace.sensors;
+    if sensors.built_at == Some(rebuilds) && moved.is_empty() {
         return;
     }
     for entity in &stray {
@@ -173,13 +192,12 @@ pub(crate) fn update_sensors(
         })
         .collect();
     list.sort_by_key(|(entity, _, _)| *entity);
-    let sensors = sensors.as_mut();
     sensors.entities.clear();
     sensors.entities.extend(list.iter().map(|s| s.0));
     sensors.layers.clear();
     sensors.layers.extend(list.iter().map(|s| s.2));
     sensors.set.rebuild(list.into_iter().map(|s| s.1));
-    sensors.built_at = Some(workspace.rebuilds);
+    sensors.built_at = Some(rebuilds);
 }
 
 /// The crossings of a solved lane's bodies, along the paths the solve recorded (the whole
@@ -247,13 +265,13 @@ pub(crate) fn sense_lane(
 /// lane in listing order, each body's in time order.
 pub(crate) fn send_crossings(
     workspace: Res<CcdWorkspace>,
-    sensors: Res<SensorWorld>,
     mut out: MessageWriter<CcdSensorCrossing>,
 ) {
+    let ws: &CcdWorkspace = &workspace;
+    let sensors = &ws.sensors;
     if !sensors.any() {
         return;
     }
-    let ws: &CcdWorkspace = &workspace;
     let lane_len = ws.lane_len.max(1);
     for (lane, first) in ws.lanes.iter().zip((0..ws.bodies.len()).step_by(lane_len)) {
         for &(index, start, count) in &lane.sensing.crossed {

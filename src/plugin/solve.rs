@@ -54,7 +54,6 @@ pub(crate) fn solve(
     ticks: SystemChangeTick,
     mut queries: ParamSet<(ListQuery, WriteQuery)>,
     colliders: Query<&Collider, Without<StaticCollider>>,
-    sensors: Res<SensorWorld>,
 ) {
     let dt = step_length(&config, time.as_deref());
     let workspace = workspace.as_mut();
@@ -90,6 +89,7 @@ pub(crate) fn solve(
         static_layers,
         bodies: entries,
         lanes,
+        sensors,
         ..
     } = workspace;
     let (statics, static_entities): (&StaticSet, &[Entity]) = (statics, static_entities);

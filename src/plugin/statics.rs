@@ -10,6 +10,9 @@ use super::workspace::CcdWorkspace;
 use super::{CcdConfig, CcdDiagnostics, Collider, CollisionLayers, Sensor, StaticCollider};
 use crate::geometry::{self, Aabb, Pose, StaticItem};
 
+/// The solid targets: statics that are not [`Sensor`]s.
+type Solid = (With<StaticCollider>, Without<Sensor>);
+
 /// What [`update_statics`] reads of the world.
 #[derive(SystemParam)]
 pub(crate) struct StaticWatch<'w, 's> {
@@ -22,9 +25,9 @@ pub(crate) struct StaticWatch<'w, 's> {
             &'static Transform,
             Option<&'static CollisionLayers>,
         ),
-        (With<StaticCollider>, Without<Sensor>),
+        Solid,
     >,
-    moved: Query<'w, 's, (), (With<StaticCollider>, Without<Sensor>, Changed<Transform>)>,
+    moved: Query<'w, 's, (), (Solid, Changed<Transform>)>,
     is_static: Query<'w, 's, (), With<StaticCollider>>,
     lost_transform: RemovedComponents<'w, 's, Transform>,
 }

@@ -8,7 +8,7 @@ use glam::Vec2;
 
 use super::CollisionLayers;
 use super::outcome::CcdError;
-use super::sensors::SensorLane;
+use super::sensors::{SensorLane, SensorWorld};
 use crate::geometry::{self, ImpactRecord, StaticSet};
 
 /// One CCD body of this step: what the solver needs, then what it did.
@@ -101,6 +101,8 @@ pub(crate) struct CcdWorkspace {
     /// The layers of each target, in target order; empty when every target has the default
     /// layers.
     pub(crate) static_layers: Vec<CollisionLayers>,
+    /// The sensors, in a hierarchy of their own.
+    pub(crate) sensors: SensorWorld,
     /// The hierarchy holds every static as it is now.
     pub(crate) statics_ready: bool,
     /// The coordinate limit the hierarchy was built with: a new slop rebuilds it.
