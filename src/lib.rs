@@ -49,11 +49,12 @@ pub mod debug {
 pub mod prelude {
     pub use crate::geometry::{Aabb, CastError, ShapeError};
     pub use crate::plugin::{
-        BodyMass, CastFilter, CastHit, CcdConfig, CcdDiagnostics, CcdEnabled, CcdError, CcdHooks,
-        CcdImpact, CcdOutcome, CcdPlugin, CcdSchedule, CcdStartSchedule, CcdStepSystems,
-        CcdSystems, Collider, CollisionLayers, Friction, Hits, ImpactCandidate, OneWayPlatform,
-        OneWayPlatforms, Resolution, Restitution, Slide, StaticCollider, StaticQuery, StepPoses,
-        Velocity,
+        BodyMass, CastFilter, CastHit, CcdConfig, CcdDiagnostics, CcdEnabled, CcdError, CcdEvents,
+        CcdHit, CcdHooks, CcdImpact, CcdOutcome, CcdPlugin, CcdSchedule, CcdSensorCrossing,
+        CcdSensorEntered, CcdSensorExited, CcdStartSchedule, CcdStepSystems, CcdSystems,
+        Collider, CollisionLayers, Friction, Hits, ImpactCandidate, OneWayPlatform,
+        OneWayPlatforms, Resolution, Restitution, Sensor, Slide, StaticCollider, StaticQuery,
+        StepPoses, Velocity,
     };
     pub use glam::Vec2;
 }

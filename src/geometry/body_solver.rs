@@ -24,6 +24,7 @@ pub use super::pair::BodyState;
 use super::pair::{Contact, PairOutcome, contact_patch, pair_toi};
 use super::proxy::ShapeProxy;
 use super::response::{Response, patch_response};
+use super::sensor::PathPiece;
 use super::static_set::{StaticSet, TargetRecord};
 use super::sweep::Sweep;
 use super::toi::{BodyFrame, ToiFailure};
@@ -240,11 +241,12 @@ pub fn solve_compound_body(
         scratch,
         impacts,
         &accept_all,
+        None,
     )
 }
 
-/// [`solve_compound_body`] with a filter on its impacts, as [`solve_body_filtered`]: a
-/// rejected (target, part) pair is ignored for the rest of the step.
+/// [`solve_compound_body`] with a filter on its impacts and the path it travelled, as
+/// [`solve_body_filtered`]: a rejected (target, part) pair is ignored for the rest of the step.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn solve_compound_body_filtered(
     body: &BodyState,
@@ -255,10 +257,13 @@ pub(crate) fn solve_compound_body_filtered(
     scratch: &mut Vec<u32>,
     impacts: &mut Vec<ImpactRecord>,
     accept: &impl Fn(&CandidateHit) -> bool,
+    path: Option<&mut Vec<PathPiece>>,
 ) -> BodyOutcome {
     let parts = &compound.parts[..compound.parts.len().min(MAX_PARTS)];
     if parts.is_empty() {
-        return solve_body_filtered(body, statics, candidates, settings, scratch, impacts, accept);
+        return solve_body_filtered(
+            body, statics, candidates, settings, scratch, impacts, accept, path,
+        );
     }
     let states = parts
         .iter()
@@ -273,7 +278,9 @@ pub(crate) fn solve_compound_body_filtered(
         states,
         interacts: compound.interacts,
     };
-    solve(body, &many, statics, candidates, settings, scratch, impacts, accept)
+    solve(
+        body, &many, statics, candidates, settings, scratch, impacts, accept, path,
+    )
 }
 
 /// Sweeps one body against the static world and resolves its impacts.
@@ -310,6 +317,7 @@ pub fn solve_body(
         scratch,
         impacts,
         &accept_all,
+        None,
     )
 }
 
@@ -317,8 +325,11 @@ pub fn solve_body(
 /// responded to (see [`CandidateHit`]); a target it rejects is ignored by this body for the
 /// rest of the step, every sub-step included, as Box2D's `b2PreContinuousFcn` disables the
 /// pair, and the sweep is searched again without it. Only impacts are filtered, never pairs
-/// in the search, so a filter costs nothing until a body hits something.
+/// in the search, so a filter costs nothing until a body hits something. Also appends to
+/// `path` (when given) each stretch of the step the body travelled, in order
+/// ([`PathPiece`]): what sensors are swept along.
 #[inline]
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn solve_body_filtered(
     body: &BodyState,
     statics: &StaticSet,
@@ -327,6 +338,7 @@ pub(crate) fn solve_body_filtered(
     scratch: &mut Vec<u32>,
     impacts: &mut Vec<ImpactRecord>,
     accept: &impl Fn(&CandidateHit) -> bool,
+    path: Option<&mut Vec<PathPiece>>,
 ) -> BodyOutcome {
     solve(
         body,
@@ -337,6 +349,7 @@ pub(crate) fn solve_body_filtered(
         scratch,
         impacts,
         accept,
+        path,
     )
 }
 
@@ -362,6 +375,7 @@ fn solve(
     scratch: &mut Vec<u32>,
     impacts: &mut Vec<ImpactRecord>,
     accept: &impl Fn(&CandidateHit) -> bool,
+    mut path: Option<&mut Vec<PathPiece>>,
 ) -> BodyOutcome {
     let slop = settings.linear_slop;
     let dt = settings.dt;
@@ -623,15 +637,19 @@ fn solve(
                 result.position = pose.p;
                 result.angle = sweep.angle_at(fraction);
                 result.failure = Some(failure);
+                let to = step_start + fraction * (1.0 - step_start);
+                trace(&mut path, &sweep, fraction, step_start, to);
                 break;
             }
         }
         let Some((fraction, index, part, hit, resting, _)) = best else {
+            trace(&mut path, &sweep, 1.0, step_start, 1.0);
             result.position = sweep.pose_at(1.0).p;
             result.angle = sweep.a1;
             break;
         };
         let step_fraction = step_start + fraction * (1.0 - step_start);
+        trace(&mut path, &sweep, fraction, step_start, step_fraction);
         let contacts = if fraction == 0.0 {
             &touching[..]
         } else {
@@ -756,6 +774,21 @@ fn solve(
         result.velocity = Some(velocity);
     }
     result
+}
+
+/// Appends to `path`, when given, the part `[0, u]` of `sweep`, which covers the fractions
+/// `[from, to]` of the step.
+#[inline]
+fn trace(path: &mut Option<&mut Vec<PathPiece>>, sweep: &Sweep, u: f32, from: f32, to: f32) {
+    if let Some(path) = path {
+        let sweep = if u == 1.0 {
+            *sweep
+        } else {
+            let (c, a) = (sweep.center_at(u), sweep.angle_at(u));
+            Sweep::new(sweep.local_center, sweep.c0, sweep.a0, c, a)
+        };
+        path.push(PathPiece { sweep, from, to });
+    }
 }
 
 #[cfg(test)]
@@ -1204,6 +1237,7 @@ mod tests {
             &mut Vec::new(),
             &mut impacts,
             &accept,
+            None,
         );
         // 2 m a step: 0.145 m to wall 1, 0.79 m back to wall 2 through wall 0 (asked), 0.79 m
         // to wall 1 again through wall 0 (not asked), 0.275 m back.

@@ -18,6 +18,7 @@ mod pair;
 mod proxy;
 mod ray;
 mod response;
+pub(crate) mod sensor;
 mod shape;
 pub(crate) mod static_set;
 mod sweep;

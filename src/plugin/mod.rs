@@ -14,6 +14,7 @@ mod config;
 #[cfg(feature = "debug")]
 pub(crate) mod debug;
 mod diagnostics;
+mod events;
 mod gather;
 mod hierarchy;
 mod hooks;
@@ -25,6 +26,7 @@ mod outcome;
 mod parallel;
 mod query;
 mod record;
+mod sensors;
 mod solve;
 mod statics;
 #[cfg(any(test, feature = "testing"))]
@@ -47,11 +49,13 @@ pub use components::{
 };
 pub use config::CcdConfig;
 pub use diagnostics::CcdDiagnostics;
+pub use events::{CcdEvents, CcdHit, CcdSensorEntered, CcdSensorExited};
 pub use hierarchy::MAX_HIERARCHY_DEPTH;
 pub use hooks::{CcdHooks, ImpactCandidate, OneWayPlatform, OneWayPlatforms};
 pub use layers::CollisionLayers;
 pub use outcome::{CcdError, CcdImpact, CcdOutcome, Hits};
 pub use query::{CastFilter, CastHit, Slide, StaticQuery};
+pub use sensors::{CcdSensorCrossing, Sensor};
 use workspace::CcdWorkspace;
 
 /// Continuous collision detection for bodies moved by the user's own code.
@@ -68,7 +72,8 @@ use workspace::CcdWorkspace;
 ///                  CcdStepSystems::Solve         per body: swept-bound query, bilateral
 ///                                                advancement, clamp or sub-step; write
 ///                                                `Transform`, `Velocity`, `CcdOutcome`
-///                  CcdStepSystems::Impacts       send the `CcdImpact` messages
+///                  CcdStepSystems::Impacts       send the `CcdImpact` and `CcdSensorCrossing`
+///                                                messages; trigger the entity events
 /// ```
 ///
 /// Put your movement systems in `FixedUpdate`, or anywhere between [`CcdSystems::RecordStart`]
@@ -198,8 +203,10 @@ impl Plugin for CcdPlugin {
             .init_resource::<CcdWorkspace>()
             .init_resource::<compound::Compounds>()
             .init_resource::<CcdDiagnostics>()
+            .init_resource::<events::Listeners>()
             .init_resource::<Time<Fixed>>()
             .add_message::<CcdImpact>()
+            .add_message::<CcdSensorCrossing>()
             .register_type::<CcdConfig>()
             .register_type::<CcdDiagnostics>()
             .register_type::<Collider>()
@@ -214,7 +221,9 @@ impl Plugin for CcdPlugin {
             .register_type::<CollisionLayers>()
             .register_type::<CastFilter>()
             .register_type::<CastHit>()
-            .register_type::<OneWayPlatform>();
+            .register_type::<OneWayPlatform>()
+            .register_type::<Sensor>()
+            .register_type::<CcdEvents>();
         for label in [CcdStartSchedule.intern(), CcdSchedule.intern()] {
             app.init_schedule(label);
             app.edit_schedule(label, |schedule| {
@@ -248,7 +257,16 @@ impl Plugin for CcdPlugin {
                     .in_set(CcdStepSystems::RecordEnd)
                     .after(record::record_end),
                 statics::update_statics.in_set(CcdStepSystems::UpdateStatics),
-                impacts::send_impacts.in_set(CcdStepSystems::Impacts),
+                sensors::update_sensors
+                    .in_set(CcdStepSystems::UpdateStatics)
+                    .after(statics::update_statics),
+                (
+                    impacts::send_impacts,
+                    sensors::send_crossings,
+                    events::trigger_events,
+                )
+                    .chain()
+                    .in_set(CcdStepSystems::Impacts),
             ),
         );
         (self.add_solve)(app);
@@ -291,6 +309,7 @@ pub enum CcdStepSystems {
     /// [`Velocity`] and [`CcdOutcome`]; in one parallel region, each lane of bodies queried
     /// and solved by one thread, so that its candidates are still in that core's cache.
     Solve,
-    /// Sends the [`CcdImpact`] messages.
+    /// Sends the [`CcdImpact`] and [`CcdSensorCrossing`] messages, and triggers the entity
+    /// events ([`CcdEvents`]), which observers see when the schedule's commands are applied.
     Impacts,
 }

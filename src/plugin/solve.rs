@@ -16,6 +16,7 @@ use super::hooks::{CcdHooks, ask};
 use super::outcome::CcdError;
 use super::parallel::{MAX_ITEMS, hand_out, pool, workers};
 use super::record::step_length;
+use super::sensors::{SensorLane, SensorWorld, sense_lane};
 use super::workspace::{
     BodyEntry, COMPOUND, CcdWorkspace, HAS_MASS, HAS_VELOCITY, Lane, NUDGED, OVERLAPPING,
     WAS_CLEAR, Warned,
@@ -104,6 +105,7 @@ pub(crate) fn solve<H: CcdHooks + 'static>(
         static_layers,
         bodies: entries,
         lanes,
+        sensors,
         ..
     } = workspace;
     let statics: &StaticSet = statics;
@@ -112,6 +114,8 @@ pub(crate) fn solve<H: CcdHooks + 'static>(
         colliders: static_colliders,
         child_frames,
     };
+    // Checked once a step: without sensors no path is recorded.
+    let sensors = sensors.any().then_some(&*sensors);
     // Filled by index, not pushed, so that the lanes already listed can be handed out while
     // the rest is listed; in the steady state the length is already right and this writes
     // nothing. Exactly as many as can be gathered, so that the buffer does not double past
@@ -161,6 +165,7 @@ pub(crate) fn solve<H: CcdHooks + 'static>(
                     compounds,
                     settings: &settings,
                     accept: &accept,
+                    sensors,
                 };
                 solve_lane(chunk, lane, &shared, &colliders);
             },
@@ -230,6 +235,8 @@ pub(crate) struct Shared<'a> {
     /// The hooks' verdict on an impact of a body (entity, collider): a call through a
     /// pointer only at an impact, never per pair.
     pub(crate) accept: &'a (dyn Fn(Entity, Entity, &CandidateHit) -> bool + Sync),
+    /// The sensors, when the world has any: then each body's path is recorded.
+    pub(crate) sensors: Option<&'a SensorWorld>,
 }
 
 /// Stores what the solver did with a body in its entry.
@@ -275,6 +282,7 @@ fn solve_compound(
     list: &[u32],
     scratch: &mut Vec<u32>,
     impacts: &mut Vec<geometry::ImpactRecord>,
+    (sensing, index): (&mut SensorLane, usize),
 ) {
     let Some(compound) = shared.compounds.find(body.entity) else {
         body.error = Some(CcdError::InvalidBodyData);
@@ -303,6 +311,8 @@ fn solve_compound(
         let collider = shared.compounds.collider(entry, hit.part);
         (shared.accept)(entry.entity, collider, hit)
     };
+    let from = sensing.path.len();
+    let path = shared.sensors.map(|_| &mut sensing.path);
     let outcome = solve_compound_body_filtered(
         &state,
         compound,
@@ -312,7 +322,9 @@ fn solve_compound(
         scratch,
         impacts,
         &accept,
+        path,
     );
+    sensing.traced(index, from);
     store(body, outcome);
 }
 
@@ -331,6 +343,7 @@ pub(crate) fn solve_lane(
         hit,
         visit,
         scratch,
+        sensing,
     } = lane;
     impacts.clear();
     hit.clear();
@@ -356,7 +369,7 @@ pub(crate) fn solve_lane(
                 let list = &candidates[start..start + body.candidate_count as usize];
                 if body.flags & COMPOUND != 0 {
                     // Rare: solved at once, its impacts kept together as any body's.
-                    solve_compound(body, shared, list, scratch, impacts);
+                    solve_compound(body, shared, list, scratch, impacts, (sensing, next));
                     next += 1;
                     continue;
                 }
@@ -386,7 +399,16 @@ pub(crate) fn solve_lane(
             let list = &candidates[start..start + body.candidate_count as usize];
             body.impacts = impacts.len() as u32;
             let entry: &BodyEntry = body;
-            let accept = |hit: &CandidateHit| (shared.accept)(entry.entity, entry.entity, hit);
+            // The broad phase filtered the first sweep's candidates by layers; a sub-step's
+            // own query is not, so an impact with a target the layers rule out is refused
+            // here (the solver then ignores that target for the rest of the step).
+            let accept = |hit: &CandidateHit| {
+                let layers = shared.static_layers.get(hit.target as usize);
+                entry.layers.interacts(layers.copied().unwrap_or_default())
+                    && (shared.accept)(entry.entity, entry.entity, hit)
+            };
+            let from = sensing.path.len();
+            let path = shared.sensors.map(|_| &mut sensing.path);
             let outcome = solve_body_filtered(
                 &state,
                 shared.statics,
@@ -395,11 +417,17 @@ pub(crate) fn solve_lane(
                 scratch,
                 impacts,
                 &accept,
+                path,
             );
+            sensing.traced(index, from);
             store(body, outcome);
         }
     }
     core::hint::black_box(touched);
+    if let Some(sensors) = shared.sensors {
+        sense_lane(chunk, lane, sensors, colliders, shared.settings.linear_slop);
+    }
+    let Lane { hit, visit, .. } = lane;
     // The bodies the write-back must visit, and those with impact messages. Every other
     // body was clear before and is clear now, at its end pose: `record_end` already wrote
     // its resolved pose, and its components stay as they are.

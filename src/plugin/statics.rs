@@ -16,7 +16,9 @@ use super::hierarchy::{
     Ancestry, MAX_HIERARCHY_DEPTH, Planar, TickedAncestry, moved_since, pose_in, push_ancestors,
 };
 use super::workspace::CcdWorkspace;
-use super::{CcdConfig, CcdDiagnostics, CcdEnabled, Collider, CollisionLayers, StaticCollider};
+use super::{
+    CcdConfig, CcdDiagnostics, CcdEnabled, Collider, CollisionLayers, Sensor, StaticCollider,
+};
 use crate::geometry::{self, Aabb, Pose, StaticItem};
 
 /// What the rebuild reads of a target.
@@ -39,18 +41,21 @@ type Kinds = (
     Has<CcdEnabled>,
     Option<&'static ChildOf>,
 );
+/// The solid targets: statics that are not [`Sensor`]s (those are kept apart, see
+/// `sensors.rs`).
+type Solid = (With<StaticCollider>, Without<Sensor>);
 
 /// What [`update_statics`] reads of the world.
 #[derive(SystemParam)]
 pub(crate) struct StaticWatch<'w, 's> {
-    statics: Query<'w, 's, StaticData, With<StaticCollider>>,
+    statics: Query<'w, 's, StaticData, Solid>,
     /// Every child collider that is not a target or a body itself: a part of the target
     /// above it, if there is one ([`owner`]).
     parts: Query<'w, 's, PartData, PartFilter>,
     kinds: Query<'w, 's, Kinds>,
     ancestry: Ancestry<'w, 's>,
     ticked: TickedAncestry<'w, 's>,
-    moved: Query<'w, 's, (), (With<StaticCollider>, Moved)>,
+    moved: Query<'w, 's, (), (Solid, Moved)>,
     moved_parts: Query<'w, 's, Entity, (PartFilter, With<Collider>, Moved)>,
     lost_transform: RemovedComponents<'w, 's, Transform>,
     lost_parent: RemovedComponents<'w, 's, ChildOf>,
@@ -206,7 +211,8 @@ fn rebuild_if_stale(workspace: &mut CcdWorkspace, watch: &mut StaticWatch, limit
         }
     }
     for (entity, collider, layers) in parts.iter() {
-        let Some(target) = owner(entity, kinds) else {
+        // A part below a sensor is not a solid target's (a sensor is one collider).
+        let Some(target) = owner(entity, kinds).filter(|t| statics.contains(*t)) else {
             continue;
         };
         push_ancestors(entity, ancestry, &mut ancestors);

@@ -9,6 +9,7 @@ use glam::Vec2;
 use super::CollisionLayers;
 use super::hierarchy::Planar;
 use super::outcome::CcdError;
+use super::sensors::{SensorLane, SensorWorld};
 use crate::geometry::{self, ImpactRecord, StaticSet};
 
 /// One CCD body of this step: what the solver needs, then what it did.
@@ -80,6 +81,8 @@ pub(crate) struct Lane {
     /// with impacts, errors or overlaps, and those whose outcome was not clear before.
     pub(crate) visit: Vec<u32>,
     pub(crate) scratch: Vec<u32>,
+    /// The paths and crossings of the lane's bodies, when the world has sensors.
+    pub(crate) sensing: SensorLane,
 }
 
 impl Lane {
@@ -88,6 +91,7 @@ impl Lane {
             + self.impacts.capacity() * size_of::<ImpactRecord>()
             + (self.hit.capacity() + self.visit.capacity() + self.scratch.capacity())
                 * size_of::<u32>()
+            + self.sensing.bytes()
     }
 }
 
@@ -115,6 +119,8 @@ pub(crate) struct CcdWorkspace {
     /// The layers of each target, in target order; empty when every target has the default
     /// layers.
     pub(crate) static_layers: Vec<CollisionLayers>,
+    /// The sensors, in a hierarchy of their own.
+    pub(crate) sensors: SensorWorld,
     /// The hierarchy holds every static as it is now.
     pub(crate) statics_ready: bool,
     /// The coordinate limit the hierarchy was built with: a new slop rebuilds it.

@@ -1,0 +1,271 @@
+//! Sensors: targets that report the bodies crossing them and never stop them.
+//!
+//! A body's motion over a step is the path [`solve_body`](super::solve_body) made it travel: one
+//! [`PathPiece`] per sweep it spent (start to end when nothing was in the way; start to the
+//! impact, then on from there, when it was clamped or sub-stepped). [`sense_path`] finds where
+//! that path enters and leaves each sensor.
+//!
+//! On one piece, against one sensor, with the crate's [`time_of_impact`]:
+//! - *entered* is the first time the surfaces touch, searched forward from the piece's start;
+//! - *exited* is the last time they touch, the first touch of the reversed piece (end → start)
+//!   mapped back, `t = 1 - t_reversed`.
+//!
+//! The target separation is 0 (the surfaces touching, give or take the search's tolerance, a
+//! quarter slop), not the slop a solid target stops a body at: a sensor reports the moment the
+//! body reaches it, and a body resting one slop from a solid floor does not touch a pad lying
+//! flush on that floor. A body is *inside* a sensor at a pose where the time of impact counts it
+//! touching there (within that tolerance, or overlapping), so that the inside states and the
+//! crossings come from the same test. A state is carried from piece to piece, so a body inside
+//! at a piece's boundary gets no second record, and one inside at the step's start gets no
+//! *entered*.
+//!
+//! Limit: each piece yields at most one *entered* and one *exited* per sensor, the first entry and
+//! the last exit. A body that turns out of a sensor and back in within one piece (or in and
+//! back out, starting and ending outside it, after an entry) reports only those two. A query
+//! that fails ([`ToiState::Failed`]) reports nothing for that sensor on that piece and leaves
+//! its state as it was.
+
+use glam::Vec2;
+use smallvec::SmallVec;
+
+use super::proxy::ShapeProxy;
+use super::static_set::StaticSet;
+use super::sweep::Sweep;
+use super::toi::{ToiConfig, ToiInput, ToiState, time_of_impact};
+
+/// One stretch of a body's path over a step: the sweep it travelled, and the fractions of the
+/// whole step at its two ends.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct PathPiece {
+    /// The motion over the piece, its end the pose the body reached.
+    pub(crate) sweep: Sweep,
+    /// Fraction of the step at the piece's start.
+    pub(crate) from: f32,
+    /// Fraction of the step at its end.
+    pub(crate) to: f32,
+}
+
+/// One crossing of a sensor by a body.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct CrossingRecord {
+    /// Index of the sensor in its [`StaticSet`].
+    pub(crate) sensor: u32,
+    /// The body entered it (or else left it).
+    pub(crate) entered: bool,
+    /// Fraction of the step at which it happened.
+    pub(crate) fraction: f32,
+}
+
+/// Sensors one body's path comes near, kept on the stack (a path rarely meets more).
+const SENSORS_NEAR: usize = 8;
+
+/// Appends to `out` every crossing of the sensors in `sensors` (those `accepts` lets through) by
+/// the body of shape `proxy` travelling `path`, in time order, ties by sensor index (an entry
+/// before an exit of the same sensor). Deterministic: it depends only on its inputs. `scratch`
+/// is a reusable buffer.
+pub(crate) fn sense_path(
+    proxy: &ShapeProxy,
+    path: &[PathPiece],
+    sensors: &StaticSet,
+    accepts: impl Fn(u32) -> bool,
+    linear_slop: f32,
+    scratch: &mut Vec<u32>,
+    out: &mut Vec<CrossingRecord>,
+) {
+    // The sensors whose boxes some piece's swept box meets, and which pieces those are (a bit
+    // per piece, the first 64; later pieces test every sensor near the path).
+    let mut near: SmallVec<[(u32, u64); SENSORS_NEAR]> = SmallVec::new();
+    for (k, piece) in path.iter().enumerate() {
+        scratch.clear();
+        sensors.candidates(proxy, &piece.sweep, linear_slop, scratch);
+        for &index in scratch.iter().filter(|&&i| accepts(i)) {
+            let bit = if k < 64 { 1u64 << k } else { 0 };
+            match near.iter_mut().find(|n| n.0 == index) {
+                Some(n) => n.1 |= bit,
+                None => near.push((index, bit)),
+            }
+        }
+    }
+    near.sort_unstable_by_key(|n| n.0);
+    let first = out.len();
+    for &(index, pieces) in &near {
+        let Some(item) = sensors.items().get(index as usize) else {
+            continue;
+        };
+        let sensor_sweep = Sweep::stationary(Vec2::ZERO, item.position, item.angle);
+        let touch = |sweep: Sweep| {
+            time_of_impact(&ToiInput {
+                max_fraction: 1.0,
+                config: ToiConfig {
+                    linear_slop,
+                    target_separation: Some(0.0),
+                },
+                ..ToiInput::new(*proxy, sweep, item.proxy, sensor_sweep)
+            })
+        };
+        // A piece far from the sensor is outside it throughout.
+        let mut inside = false;
+        for (k, piece) in path.iter().enumerate() {
+            let span = piece.to - piece.from;
+            let at = |t: f32| (piece.from + t * span).min(piece.to);
+            let mut record = |entered: bool, fraction: f32| {
+                out.push(CrossingRecord {
+                    sensor: index,
+                    entered,
+                    fraction,
+                });
+            };
+            if k < 64 && pieces & (1 << k) == 0 {
+                if inside {
+                    record(false, at(0.0));
+                }
+                inside = false;
+                continue;
+            }
+            let s = piece.sweep;
+            let forward = touch(s);
+            let start_in = matches!(forward.state, ToiState::Overlapped)
+                || (forward.state == ToiState::Hit && forward.fraction == 0.0);
+            // The previous piece ended where this one starts, so the two agree but for a
+            // solver's nudge; then the difference is a crossing at the boundary. The step's
+            // start is not a crossing: a body already inside gets no entry.
+            if k > 0 && start_in != inside {
+                record(start_in, at(0.0));
+            }
+            inside = start_in;
+            let entry = if inside {
+                0.0
+            } else if forward.state == ToiState::Hit {
+                record(true, at(forward.fraction));
+                inside = true;
+                forward.fraction
+            } else {
+                // Apart throughout, or no answer: nothing to report on this piece.
+                continue;
+            };
+            let reversed = touch(Sweep::new(s.local_center, s.c1, s.a1, s.c0, s.a0));
+            if reversed.state == ToiState::Hit && reversed.fraction > 0.0 {
+                // Touching last at `1 - fraction` of the piece, apart at its end (never before
+                // the entry, whatever the rounding).
+                record(false, at((1.0 - reversed.fraction).max(entry)));
+                inside = false;
+            }
+        }
+    }
+    // Time order over all sensors; each sensor's own records are in time order already, and the
+    // sort is stable, so an entry stays before its exit at the same fraction.
+    out[first..].sort_by(|a, b| {
+        a.fraction
+            .total_cmp(&b.fraction)
+            .then(a.sensor.cmp(&b.sensor))
+    });
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::static_set::StaticItem;
+    use crate::geometry::{Circle, LINEAR_SLOP, Polygon, Shape};
+
+    /// A 1 cm thick sensor at x = 0, 2 m tall.
+    fn trigger() -> StaticSet {
+        let mut set = StaticSet::default();
+        set.rebuild([StaticItem {
+            proxy: Shape::from(Polygon::rectangle(0.005, 1.0).unwrap()).proxy(),
+            position: Vec2::ZERO,
+            angle: 0.0,
+        }]);
+        set
+    }
+
+    fn sense(path: &[PathPiece], radius: f32) -> Vec<CrossingRecord> {
+        let proxy = Shape::from(Circle::new(radius).unwrap()).proxy();
+        let mut out = Vec::new();
+        sense_path(
+            &proxy,
+            path,
+            &trigger(),
+            |_| true,
+            LINEAR_SLOP,
+            &mut Vec::new(),
+            &mut out,
+        );
+        out
+    }
+
+    fn piece(from_x: f32, to_x: f32, from: f32, to: f32) -> PathPiece {
+        let sweep = Sweep::new(
+            Vec2::ZERO,
+            Vec2::new(from_x, 0.0),
+            0.0,
+            Vec2::new(to_x, 0.0),
+            0.0,
+        );
+        PathPiece { sweep, from, to }
+    }
+
+    /// Straight through in one piece: entered where the front touches (x = -0.005 - r), exited
+    /// where the back leaves (x = 0.005 + r), within the search tolerance, a quarter slop, over
+    /// the 2 m travelled.
+    #[test]
+    fn a_pass_through_enters_and_exits_once() {
+        let r = 0.01;
+        let out = sense(&[piece(-1.0, 1.0, 0.0, 1.0)], r);
+        assert_eq!(out.len(), 2, "{out:?}");
+        let tolerance = 0.25 * LINEAR_SLOP / 2.0 + 1e-6;
+        assert!(out[0].entered && !out[1].entered);
+        assert!(
+            (out[0].fraction - (1.0 - 0.005 - r) / 2.0).abs() < tolerance,
+            "{out:?}"
+        );
+        assert!(
+            (out[1].fraction - (1.0 + 0.005 + r) / 2.0).abs() < tolerance,
+            "{out:?}"
+        );
+    }
+
+    /// Two pieces with the boundary inside the sensor: one entry, one exit, in the right pieces.
+    #[test]
+    fn a_boundary_inside_the_sensor_gives_no_duplicate() {
+        let out = sense(
+            &[piece(-1.0, 0.0, 0.0, 0.5), piece(0.0, 1.0, 0.5, 1.0)],
+            0.01,
+        );
+        assert_eq!(out.len(), 2, "{out:?}");
+        assert!(out[0].entered && out[0].fraction < 0.5);
+        assert!(!out[1].entered && out[1].fraction > 0.5);
+    }
+
+    /// Inside at the start, inside at the end: nothing. Inside at the start, out at the end: an
+    /// exit only.
+    #[test]
+    fn a_body_starting_inside_gets_no_entry() {
+        assert!(sense(&[piece(0.0, 0.001, 0.0, 1.0)], 0.01).is_empty());
+        let out = sense(&[piece(0.0, 1.0, 0.0, 1.0)], 0.01);
+        assert_eq!(out.len(), 1, "{out:?}");
+        assert!(!out[0].entered);
+    }
+
+    /// A path that stays away reports nothing.
+    #[test]
+    fn a_body_passing_by_reports_nothing() {
+        let sweep = Sweep::new(
+            Vec2::ZERO,
+            Vec2::new(-1.0, 2.0),
+            0.0,
+            Vec2::new(1.0, 2.0),
+            0.0,
+        );
+        assert!(
+            sense(
+                &[PathPiece {
+                    sweep,
+                    from: 0.0,
+                    to: 1.0
+                }],
+                0.01
+            )
+            .is_empty()
+        );
+    }
+}

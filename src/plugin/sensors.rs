@@ -1,0 +1,324 @@
+//! [`Sensor`]s: static targets that report the bodies crossing them ([`CcdSensorCrossing`])
+//! and never stop them. Kept in a hierarchy of their own ([`SensorWorld`]), swept along each
+//! body's travelled path after it is solved ([`sense_lane`]), only when the world has one.
+
+use bevy_ecs::lifecycle::HookContext;
+use bevy_ecs::prelude::*;
+use bevy_ecs::system::{SystemChangeTick, SystemParam};
+use bevy_ecs::world::DeferredWorld;
+use bevy_reflect::prelude::*;
+use bevy_transform::components::Transform;
+
+use super::hierarchy::{Ancestry, TickedAncestry, moved_since, pose_in, push_ancestors};
+use super::outcome::CcdError;
+use super::workspace::{BodyEntry, CcdWorkspace, Lane};
+use super::{CcdConfig, Collider, CollisionLayers, StaticCollider};
+use crate::geometry::sensor::{CrossingRecord, PathPiece, sense_path};
+use crate::geometry::{self, Aabb, Pose, StaticItem, StaticSet};
+
+/// Marks a [`StaticCollider`] as a sensor: bodies pass through it, never stopped or deflected,
+/// and each crossing is reported ([`CcdSensorCrossing`] messages, and the entity events of
+/// [`CcdEvents`](super::CcdEvents)).
+///
+/// A body crossing a sensor in a step gets an *entered* and an *exited* crossing at the
+/// fractions of the step where its surface first and last touches the sensor's (within a
+/// quarter slop), in time order, also when it passes entirely through within the step; a body
+/// already inside gets no new *entered*. The crossings are found along the path the body
+/// really travelled: to its impact when clamped, along every sub-step when sub-stepped.
+/// [`CollisionLayers`] apply as to solid targets.
+///
+/// A `Sensor` on an entity without [`StaticCollider`] (a [`CcdEnabled`](super::CcdEnabled)
+/// body, say) is ignored, with a warning at the next rebuild of the sensors: the body is swept
+/// as any other, and no moving sensor reports anything.
+///
+/// ```
+/// use bevy_ccd::prelude::*;
+/// use bevy_ecs::prelude::*;
+/// use bevy_transform::prelude::Transform;
+///
+/// let mut world = World::new();
+/// // A finish line: bullets fly through it and are reported.
+/// world.spawn((
+///     Collider::rectangle(0.005, 5.0).unwrap(),
+///     StaticCollider,
+///     Sensor,
+///     Transform::from_xyz(10.0, 0.0, 0.0),
+/// ));
+/// ```
+#[derive(Component, Reflect, Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[component(on_add = sensor_changed, on_remove = sensor_changed)]
+#[reflect(Component, Default, Debug, Clone)]
+pub struct Sensor;
+
+/// Hook of [`Sensor`] (addition, removal): a static becomes a sensor or a solid target again,
+/// so both hierarchies are rebuilt before the next sweep.
+fn sensor_changed(mut world: DeferredWorld, _: HookContext) {
+    if let Some(mut workspace) = world.get_resource_mut::<CcdWorkspace>() {
+        workspace.statics_changed();
+    }
+}
+
+/// One crossing of a [`Sensor`] by a CCD body: a message for every crossing of a step, by body
+/// (in the order of the [`CcdImpact`](super::CcdImpact)s), then in time order.
+///
+/// ```
+/// use bevy_ccd::prelude::*;
+/// use bevy_ecs::prelude::*;
+///
+/// fn finish_line(mut crossings: MessageReader<CcdSensorCrossing>) {
+///     for c in crossings.read().filter(|c| c.entered) {
+///         println!("{:?} crossed {:?} at {}", c.body, c.sensor, c.fraction);
+///     }
+/// }
+/// # let mut schedule = Schedule::default();
+/// # schedule.add_systems(finish_line);
+/// ```
+#[derive(Message, Reflect, Clone, Copy, Debug, PartialEq)]
+#[reflect(Debug, Clone, PartialEq)]
+pub struct CcdSensorCrossing {
+    /// The CCD body.
+    pub body: Entity,
+    /// The sensor.
+    pub sensor: Entity,
+    /// `true` when the body entered the sensor, `false` when it left it.
+    pub entered: bool,
+    /// Fraction of the step at which it happened, in `[0, 1]`.
+    pub fraction: f32,
+}
+
+/// The sensors, in a hierarchy apart from the solid targets: bodies are never swept against
+/// them, only their travelled paths are. Kept in the [`CcdWorkspace`].
+#[derive(Default)]
+pub(crate) struct SensorWorld {
+    pub(crate) set: StaticSet,
+    /// The entity of each sensor (sensor `i` is the `i`-th in entity order).
+    pub(crate) entities: Vec<Entity>,
+    /// The layers of each sensor, in sensor order.
+    pub(crate) layers: Vec<CollisionLayers>,
+    /// The solid hierarchy's rebuild count when these were built: every hook that changes a
+    /// static marks that one stale, so a rebuild there rebuilds these too.
+    built_at: Option<u64>,
+    /// The ancestors of the sensors at the last build (sorted): one that moves moves them.
+    ancestors: Vec<Entity>,
+}
+
+impl SensorWorld {
+    /// Whether the world has a sensor: with none, nothing of this module runs.
+    pub(crate) fn any(&self) -> bool {
+        !self.set.items().is_empty()
+    }
+}
+
+/// The work buffers of a lane's sensing, in its [`Lane`].
+#[derive(Default)]
+pub(crate) struct SensorLane {
+    /// The path pieces of the lane's solved bodies.
+    pub(crate) path: Vec<PathPiece>,
+    /// Per solved body: its index in the lane, and its run in `path`.
+    pub(crate) paths: Vec<(u32, u32, u32)>,
+    pub(crate) crossings: Vec<CrossingRecord>,
+    /// Per body with crossings: its index in the lane, and its run in `crossings`.
+    pub(crate) crossed: Vec<(u32, u32, u32)>,
+    scratch: Vec<u32>,
+}
+
+impl SensorLane {
+    /// Notes that the body at `index` in the lane traced `path[from..]`, if it traced any.
+    pub(crate) fn traced(&mut self, index: usize, from: usize) {
+        if self.path.len() > from {
+            let count = (self.path.len() - from) as u32;
+            self.paths.push((index as u32, from as u32, count));
+        }
+    }
+
+    pub(crate) fn bytes(&self) -> usize {
+        self.path.capacity() * size_of::<PathPiece>()
+            + (self.paths.capacity() + self.crossed.capacity()) * size_of::<(u32, u32, u32)>()
+            + self.crossings.capacity() * size_of::<CrossingRecord>()
+            + self.scratch.capacity() * size_of::<u32>()
+    }
+}
+
+/// A sensor: a [`StaticCollider`] with [`Sensor`].
+type IsSensor = (With<Sensor>, With<StaticCollider>);
+
+/// What [`update_sensors`] reads of the world.
+#[derive(SystemParam)]
+pub(crate) struct SensorWatch<'w, 's> {
+    all: Query<
+        'w,
+        's,
+        (
+            Entity,
+            &'static Collider,
+            &'static Transform,
+            Option<&'static CollisionLayers>,
+        ),
+        IsSensor,
+    >,
+    moved: Query<'w, 's, (), (IsSensor, Or<(Changed<Transform>, Changed<ChildOf>)>)>,
+    stray: Query<'w, 's, Entity, (With<Sensor>, Without<StaticCollider>)>,
+    ancestry: Ancestry<'w, 's>,
+    ticked: TickedAncestry<'w, 's>,
+    ticks: SystemChangeTick,
+}
+
+/// [`CcdStepSystems::UpdateStatics`](super::CcdStepSystems::UpdateStatics), after the solid
+/// hierarchy: rebuilds the sensors' when that one was rebuilt or a sensor moved. Sensors are in
+/// entity order, so every crossing list is deterministic. A sensor reaching beyond the
+/// coordinate limit is ignored with a warning, as a static is.
+pub(crate) fn update_sensors(
+    config: Res<CcdConfig>,
+    mut workspace: ResMut<CcdWorkspace>,
+    watch: SensorWatch,
+) {
+    let SensorWatch {
+        all,
+        moved,
+        stray,
+        ancestry,
+        ticked,
+        ticks,
+    } = watch;
+    let rebuilds = workspace.rebuilds;
+    let sensors = &mut workspace.sensors;
+    // A sensor below a level root moves with it (as a teleport, like a static).
+    let carried = sensors
+        .ancestors
+        .iter()
+        .any(|&a| moved_since(a, &ticked, ticks.last_run(), ticks.this_run()));
+    if sensors.built_at == Some(rebuilds) && moved.is_empty() && !carried {
+        return;
+    }
+    for entity in &stray {
+        log::warn!("bevy_ccd: {entity} has Sensor but no StaticCollider: not a sensor");
+    }
+    let limit = geometry::max_world_coordinate(config.linear_slop);
+    let within = |b: Aabb| b.min.abs().max(b.max.abs()).max_element() <= limit;
+    let mut ancestors = core::mem::take(&mut sensors.ancestors);
+    ancestors.clear();
+    let mut list: Vec<_> = all
+        .iter()
+        .filter_map(|(entity, collider, _, layers)| {
+            // At its world pose composed through the hierarchy, scaled, as a static.
+            push_ancestors(entity, &ancestry, &mut ancestors);
+            let item = pose_in(entity, None, &ancestry).ok().and_then(|pose| {
+                let proxy = collider.proxy().scaled(pose.scale);
+                let placed = Pose::new(pose.position, pose.angle);
+                (proxy.is_finite() && within(proxy.aabb(placed))).then_some(StaticItem {
+                    proxy,
+                    position: pose.position,
+                    angle: pose.angle,
+                })
+            });
+            if item.is_none() {
+                log::warn!(
+                    "bevy_ccd: sensor {entity} has no planar world pose or reaches beyond \
+                     {limit} m from the origin (the limit at this slop); ignored"
+                );
+            }
+            item.map(|item| (entity, item, layers.copied().unwrap_or_default()))
+        })
+        .collect();
+    ancestors.sort_unstable();
+    ancestors.dedup();
+    sensors.ancestors = ancestors;
+    list.sort_by_key(|(entity, _, _)| *entity);
+    sensors.entities.clear();
+    sensors.entities.extend(list.iter().map(|s| s.0));
+    sensors.layers.clear();
+    sensors.layers.extend(list.iter().map(|s| s.2));
+    sensors.set.rebuild(list.into_iter().map(|s| s.1));
+    sensors.built_at = Some(rebuilds);
+}
+
+/// The crossings of a solved lane's bodies, along the paths the solve recorded (the whole
+/// sweep for a body with no solid target in reach, which the solve skips). Bodies that could
+/// not be swept report nothing.
+pub(crate) fn sense_lane(
+    chunk: &[BodyEntry],
+    lane: &mut Lane,
+    sensors: &SensorWorld,
+    colliders: &Query<&Collider, Without<StaticCollider>>,
+    linear_slop: f32,
+) {
+    let SensorLane {
+        path,
+        paths,
+        crossings,
+        crossed,
+        scratch,
+    } = &mut lane.sensing;
+    crossings.clear();
+    crossed.clear();
+    // A compound body is solved as soon as it is listed, ahead of the batch before it.
+    paths.sort_unstable_by_key(|p| p.0);
+    let mut solved = paths.iter().peekable();
+    for (index, body) in chunk.iter().enumerate() {
+        let index = index as u32;
+        let whole;
+        let pieces = match solved.next_if(|p| p.0 == index) {
+            Some(&(_, start, count)) => &path[start as usize..(start + count) as usize],
+            None if body.error.is_none() => {
+                whole = [PathPiece {
+                    sweep: body.sweep,
+                    from: 0.0,
+                    to: 1.0,
+                }];
+                &whole[..]
+            }
+            None => continue,
+        };
+        if matches!(body.error, Some(e) if !matches!(e, CcdError::Toi(_))) {
+            continue;
+        }
+        let Ok(collider) = colliders.get(body.entity) else {
+            continue;
+        };
+        let start = crossings.len();
+        let accepts = |sensor: u32| body.layers.interacts(sensors.layers[sensor as usize]);
+        let proxy = collider.proxy();
+        sense_path(
+            proxy,
+            pieces,
+            &sensors.set,
+            accepts,
+            linear_slop,
+            scratch,
+            crossings,
+        );
+        if crossings.len() > start {
+            crossed.push((index, start as u32, (crossings.len() - start) as u32));
+        }
+    }
+    path.clear();
+    paths.clear();
+}
+
+/// [`CcdStepSystems::Impacts`](super::CcdStepSystems::Impacts): the crossing messages, lane by
+/// lane in listing order, each body's in time order.
+pub(crate) fn send_crossings(
+    workspace: Res<CcdWorkspace>,
+    mut out: MessageWriter<CcdSensorCrossing>,
+) {
+    let ws: &CcdWorkspace = &workspace;
+    let sensors = &ws.sensors;
+    if !sensors.any() {
+        return;
+    }
+    let lane_len = ws.lane_len.max(1);
+    for (lane, first) in ws.lanes.iter().zip((0..ws.bodies.len()).step_by(lane_len)) {
+        for &(index, start, count) in &lane.sensing.crossed {
+            let body = ws.bodies[first + index as usize].entity;
+            let list = &lane.sensing.crossings[start as usize..(start + count) as usize];
+            for c in list {
+                out.write(CcdSensorCrossing {
+                    body,
+                    sensor: sensors.entities[c.sensor as usize],
+                    entered: c.entered,
+                    fraction: c.fraction,
+                });
+            }
+        }
+    }
+}

@@ -1,0 +1,368 @@
+//! Sensors: bodies crossing them get one *entered* and one *exited* crossing at the fractions
+//! the geometry predicts, at 2,000 m/s through 1 cm and at 5 m/s over several steps; nothing for
+//! a body resting inside, or on a layer the body ignores; crossings along a sub-stepped body's
+//! bent path; poses identical to the bit with and without sensors; the same crossings on one
+//! thread or many; and a `Sensor` on a body is ignored.
+
+mod support;
+
+use bevy_app::{App, FixedPostUpdate};
+use bevy_ccd::prelude::*;
+use bevy_ccd::testing::{ArenaConfig, Gravity, StepFixed, spawn_arena};
+use bevy_ecs::prelude::*;
+use bevy_transform::prelude::Transform;
+use support::app::*;
+
+/// Every crossing message, with the step it came in.
+#[derive(Resource, Default)]
+struct Crossings(Vec<(usize, CcdSensorCrossing)>);
+
+fn collect_crossings(
+    mut reader: MessageReader<CcdSensorCrossing>,
+    log: Res<Log>,
+    mut out: ResMut<Crossings>,
+) {
+    let step = log.steps;
+    out.0.extend(reader.read().map(|c| (step, *c)));
+}
+
+/// [`app_with`], logging the crossings.
+fn sensing_app(resolution: Resolution) -> App {
+    let mut app = app_with(resolution, Vec2::ZERO, true);
+    app.init_resource::<Crossings>()
+        .add_systems(FixedPostUpdate, collect_crossings.after(CcdSystems::Step));
+    app
+}
+
+fn crossings(app: &App) -> Vec<(usize, CcdSensorCrossing)> {
+    app.world().resource::<Crossings>().0.clone()
+}
+
+/// A sensor box of half-extents `half` centred at `at`.
+fn spawn_sensor(app: &mut App, half: Vec2, at: Vec2) -> Entity {
+    let sensor = spawn_box(app, half, at);
+    app.world_mut().entity_mut(sensor).insert(Sensor);
+    sensor
+}
+
+const MODES: [Resolution; 2] = [Resolution::Clamp, Resolution::SubStep { max_substeps: 4 }];
+
+/// A ball of radius `r` from x = 0 at `speed` along x through a 1 cm sensor centred at `x_s`
+/// (or with no sensor), for `steps` steps: the crossings and the ball's pose bits after each
+/// step.
+fn fly(
+    resolution: Resolution,
+    r: f32,
+    speed: f32,
+    x_s: Option<f32>,
+    steps: usize,
+) -> (Vec<(usize, CcdSensorCrossing)>, Vec<[u32; 7]>) {
+    let mut app = sensing_app(resolution);
+    if let Some(x) = x_s {
+        spawn_sensor(&mut app, Vec2::new(0.005, 1.0), Vec2::new(x, 0.0));
+    }
+    let ball = spawn_ball(&mut app, r, Vec2::ZERO, Vec2::new(speed, 0.0), ());
+    let mut poses = Vec::new();
+    for _ in 0..steps {
+        step(&mut app);
+        poses.push(pose_bits(&app, ball));
+    }
+    (crossings(&app), poses)
+}
+
+/// The step (1-based) and fraction at which a ball from x = 0 at `speed` has its centre at `x`.
+fn when(x: f32, speed: f32) -> (usize, f32) {
+    let steps = x as f64 / (speed as f64 * DT);
+    (steps.floor() as usize + 1, steps.fract() as f32)
+}
+
+/// Checks one entered and one exited crossing (and nothing else), at the fractions where the
+/// ball's surface (radius `r`) reaches the 1 cm sensor at `x_s` and leaves it.
+fn check_pass(
+    what: &str,
+    log: &[(usize, CcdSensorCrossing)],
+    r: f32,
+    speed: f32,
+    x_s: f32,
+    tolerance: f32,
+) {
+    assert_eq!(log.len(), 2, "{what}: {log:?}");
+    let (enter_step, enter) = when(x_s - 0.005 - r, speed);
+    let (exit_step, exit) = when(x_s + 0.005 + r, speed);
+    let (s0, c0) = log[0];
+    let (s1, c1) = log[1];
+    assert!(c0.entered && !c1.entered, "{what}: {log:?}");
+    assert_eq!((s0, s1), (enter_step, exit_step), "{what}: {log:?}");
+    assert!(
+        (c0.fraction - enter).abs() <= tolerance,
+        "{what}: entered {} vs {enter}",
+        c0.fraction
+    );
+    assert!(
+        (c1.fraction - exit).abs() <= tolerance,
+        "{what}: exited {} vs {exit}",
+        c1.fraction
+    );
+    assert!(s0 < s1 || c0.fraction < c1.fraction, "{what}: {log:?}");
+}
+
+/// A 2,000 m/s bullet (1 cm ball) through a 1 cm trigger, entirely within one step: one entered
+/// and one exited, at the analytic fractions, and the bullet's poses are those of a flight with
+/// no sensor, to the bit.
+#[test]
+fn a_bullet_through_a_thin_trigger_reports_both_crossings_once() {
+    let (r, speed, x_s) = (0.01, 2000.0, 10.0);
+    // The surfaces touch within a quarter slop of the contact (the search's tolerance), over
+    // a step of `speed * dt` (33.3 m); plus the f32 rounding of a 10 m position (ROUND).
+    let tolerance = (TOL + ROUND) / (speed * DT as f32);
+    for mode in MODES {
+        let (log, poses) = fly(mode, r, speed, Some(x_s), 3);
+        check_pass(&format!("{mode:?}"), &log, r, speed, x_s, tolerance);
+        let (none, free) = fly(mode, r, speed, None, 3);
+        assert!(none.is_empty());
+        assert_eq!(poses, free, "{mode:?}: the sensor changed the motion");
+    }
+}
+
+/// At 5 m/s (8.3 cm a step) a 0.1 m ball enters a 1 cm trigger in step 3 and leaves it in step
+/// 5; nothing is reported in step 4, while it is inside, nor after.
+#[test]
+fn a_slow_body_enters_and_exits_in_different_steps() {
+    let (r, speed, x_s) = (0.1, 5.0, 0.3);
+    // A quarter slop over the 8.3 cm of a step is 1.5 % of the step; plus rounding.
+    let tolerance = (TOL + ROUND) / (speed * DT as f32);
+    for mode in MODES {
+        let (log, poses) = fly(mode, r, speed, Some(x_s), 8);
+        check_pass(&format!("{mode:?}"), &log, r, speed, x_s, tolerance);
+        assert_eq!((log[0].0, log[1].0), (3, 5));
+        let (_, free) = fly(mode, r, speed, None, 8);
+        assert_eq!(poses, free, "{mode:?}: the sensor changed the motion");
+    }
+}
+
+/// A ball resting inside a sensor gets no new entered, step after step; one drifting inside
+/// it gets nothing either; one that starts inside and leaves gets only an exited.
+#[test]
+fn a_body_inside_gets_no_entered() {
+    for mode in MODES {
+        let mut app = sensing_app(mode);
+        spawn_sensor(&mut app, Vec2::new(1.0, 1.0), Vec2::ZERO);
+        spawn_ball(&mut app, 0.1, Vec2::ZERO, Vec2::ZERO, ());
+        spawn_ball(&mut app, 0.1, Vec2::new(0.0, 0.5), Vec2::new(1.0, 0.0), ());
+        let leaving = spawn_ball(
+            &mut app,
+            0.1,
+            Vec2::new(0.0, -0.5),
+            Vec2::new(30.0, 0.0),
+            (),
+        );
+        for _ in 0..5 {
+            step(&mut app);
+        }
+        let log = crossings(&app);
+        // The leaving ball's back clears x = 1 when its centre is at 1.1: in step 3 (0.5 m a
+        // step).
+        assert_eq!(log.len(), 1, "{mode:?}: {log:?}");
+        assert!(!log[0].1.entered && log[0].1.body == leaving && log[0].0 == 3);
+    }
+}
+
+/// A sub-stepped ball bounces off a wall and crosses a sensor placed on its way back, away from
+/// its way in: the crossing is found on the bent path, after the impact. Clamped, the ball stops
+/// at the wall and never reaches the sensor. The poses are those of the same run without the
+/// sensor, to the bit.
+#[test]
+fn a_sub_stepped_body_reports_crossings_on_its_bent_path() {
+    // Wall face at x = 3; the ball (r = 0.1) moves (4, -1) m a step from the origin: it hits at
+    // x = 2.895 (the slop short of the face), fraction 0.724, then comes back at (-4, -1) a
+    // step. At x = 2.3 its way back passes y = -0.873, its way in y = -0.575: the sensor, 4 cm
+    // by 10 cm centred at (2.3, -0.873), is 0.24 m from the way in.
+    let run = |mode: Resolution, sensor: bool| {
+        let mut app = sensing_app(mode);
+        spawn_wall(&mut app, Vec2::new(3.005, 0.0), 0.005, 5.0);
+        if sensor {
+            spawn_sensor(&mut app, Vec2::new(0.02, 0.05), Vec2::new(2.3, -0.873));
+        }
+        let v = Vec2::new(4.0, -1.0) / DT as f32;
+        let ball = spawn_ball(
+            &mut app,
+            0.1,
+            Vec2::ZERO,
+            v,
+            (Restitution(1.0), Friction(0.0)),
+        );
+        step(&mut app);
+        // The entities differ with the sensor spawned or not: compare the rest.
+        let impacts: Vec<_> = impacts_at(&app, 1)
+            .iter()
+            .map(|i| {
+                (
+                    i.fraction.to_bits(),
+                    i.point.to_array(),
+                    i.normal.to_array(),
+                )
+            })
+            .collect();
+        (
+            crossings(&app),
+            pose_bits(&app, ball),
+            velocity_bits(&app, ball),
+            impacts,
+        )
+    };
+    let (log, pose, velocity, impacts) = run(Resolution::SubStep { max_substeps: 4 }, true);
+    assert_eq!(impacts.len(), 1, "{impacts:?}");
+    let hit = f32::from_bits(impacts[0].0);
+    assert_eq!(log.len(), 2, "{log:?}");
+    let (enter, exit) = (log[0].1, log[1].1);
+    assert!(enter.entered && !exit.entered, "{log:?}");
+    assert!(hit < enter.fraction && enter.fraction < exit.fraction && exit.fraction < 1.0);
+    let (free_log, free_pose, free_velocity, free_impacts) =
+        run(Resolution::SubStep { max_substeps: 4 }, false);
+    assert!(free_log.is_empty());
+    assert_eq!(
+        (pose, velocity, impacts),
+        (free_pose, free_velocity, free_impacts)
+    );
+    let (clamped, ..) = run(Resolution::Clamp, true);
+    assert!(clamped.is_empty(), "{clamped:?}");
+}
+
+/// A sensor whose layers the body's filter leaves out (or the other way round) reports nothing;
+/// layers that interact report as without layers.
+#[test]
+fn layers_apply_to_sensors() {
+    const PLAYER: u32 = 1 << 1;
+    let cases = [
+        (None, None, 2),
+        (Some(CollisionLayers::new(PLAYER, 1)), None, 2),
+        (Some(CollisionLayers::new(PLAYER, !1)), None, 0),
+        (None, Some(CollisionLayers::new(1, !1)), 0),
+    ];
+    for (ball_layers, sensor_layers, expected) in cases {
+        let mut app = sensing_app(Resolution::default());
+        let sensor = spawn_sensor(&mut app, Vec2::new(0.005, 1.0), Vec2::new(10.0, 0.0));
+        if let Some(layers) = sensor_layers {
+            app.world_mut().entity_mut(sensor).insert(layers);
+        }
+        let ball = spawn_ball(&mut app, 0.01, Vec2::ZERO, Vec2::new(2000.0, 0.0), ());
+        if let Some(layers) = ball_layers {
+            app.world_mut().entity_mut(ball).insert(layers);
+        }
+        step(&mut app);
+        let log = crossings(&app);
+        assert_eq!(
+            log.len(),
+            expected,
+            "{ball_layers:?} / {sensor_layers:?}: {log:?}"
+        );
+    }
+}
+
+/// The arena (1,000 bodies of every shape, speed and spin, under gravity) with sensors: the
+/// same crossings, bit for bit and in the same order, on one thread or many; and every body's
+/// pose is that of the run without sensors, to the bit.
+#[test]
+fn the_arena_crosses_sensors_identically_on_any_thread_count_and_unmoved() {
+    let run = |parallel: bool, sensors: bool, resolution: Resolution| {
+        let mut app = sensing_app(resolution);
+        app.insert_resource(Gravity(G)).insert_resource(CcdConfig {
+            resolution,
+            parallel,
+            ..Default::default()
+        });
+        let config = ArenaConfig {
+            bodies: 1000,
+            timestep: DT as f32,
+            ..Default::default()
+        };
+        let arena = spawn_arena(app.world_mut(), &config);
+        if sensors {
+            for k in 0..9 {
+                let at = Vec2::new(-20.0 + 5.0 * k as f32, 10.0 - 2.5 * (k % 3) as f32);
+                spawn_sensor(&mut app, Vec2::new(1.5, 0.005 + 0.5 * (k % 2) as f32), at);
+            }
+        }
+        app.step_fixed(30);
+        let bits: Vec<_> = crossings(&app)
+            .iter()
+            .map(|(s, c)| (*s, c.body, c.sensor, c.entered, c.fraction.to_bits()))
+            .collect();
+        (bits, poses(&app, &arena.bodies))
+    };
+    for mode in MODES {
+        let (serial, serial_poses) = run(false, true, mode);
+        let (parallel, parallel_poses) = run(true, true, mode);
+        assert!(
+            serial.len() > 100,
+            "{mode:?}: only {} crossings",
+            serial.len()
+        );
+        assert!(
+            serial == parallel,
+            "{mode:?}: serial and parallel crossings differ"
+        );
+        assert!(serial_poses == parallel_poses, "{mode:?}");
+        let (none, free_poses) = run(true, false, mode);
+        assert!(none.is_empty());
+        assert!(
+            serial_poses == free_poses,
+            "{mode:?}: the sensors changed the motion"
+        );
+        // Each body's crossings of each sensor alternate, entered then exited.
+        let mut state = std::collections::HashMap::new();
+        for &(_, body, sensor, entered, _) in &serial {
+            let inside = state.entry((body, sensor)).or_insert(None);
+            assert_ne!(
+                *inside,
+                Some(entered),
+                "{mode:?}: {body} / {sensor} twice {entered}"
+            );
+            *inside = Some(entered);
+        }
+    }
+}
+
+/// A `Sensor` on a CCD body (no `StaticCollider`) is ignored: the body is swept and stopped as
+/// any other, and a ball passing through it reports nothing.
+#[test]
+fn a_sensor_on_a_body_is_ignored() {
+    let mut app = sensing_app(Resolution::Clamp);
+    spawn_wall(&mut app, Vec2::new(1.005, 0.0), 0.005, 1.0);
+    let odd = spawn_ball(&mut app, 0.1, Vec2::ZERO, Vec2::new(120.0, 0.0), Sensor);
+    spawn_ball(
+        &mut app,
+        0.05,
+        Vec2::new(-1.0, 0.0),
+        Vec2::new(120.0, 0.0),
+        (),
+    );
+    step(&mut app);
+    assert!(toi(&app, odd).first_hit().is_some(), "{:?}", toi(&app, odd));
+    assert!(position(&app, odd).x + 0.1 <= 1.0);
+    assert!(crossings(&app).is_empty(), "{:?}", crossings(&app));
+}
+
+/// A static made a sensor stops stopping bodies; made solid again, it stops them again, at the
+/// next step.
+#[test]
+fn a_static_becomes_a_sensor_and_back() {
+    let mut app = sensing_app(Resolution::Clamp);
+    let gate = spawn_wall(&mut app, Vec2::new(1.005, 0.0), 0.005, 1.0);
+    app.world_mut().entity_mut(gate).insert(Sensor);
+    let ball = spawn_ball(&mut app, 0.1, Vec2::ZERO, Vec2::new(120.0, 0.0), ());
+    step(&mut app);
+    assert!(toi(&app, ball).first_hit().is_none() && (position(&app, ball).x - 2.0).abs() < 1e-4);
+    assert_eq!(crossings(&app).len(), 2);
+    app.world_mut().entity_mut(gate).remove::<Sensor>();
+    app.world_mut().entity_mut(ball).insert((
+        Transform::from_xyz(0.0, 0.0, 0.0),
+        Velocity {
+            linear: Vec2::new(120.0, 0.0),
+            angular: 0.0,
+        },
+    ));
+    step(&mut app);
+    assert!(toi(&app, ball).first_hit().is_some() && position(&app, ball).x < 1.0);
+    assert_eq!(crossings(&app).len(), 2);
+}
