@@ -50,7 +50,10 @@ pub(crate) struct StaticWatch<'w, 's> {
     kinds: Query<'w, 's, Kinds>,
     ancestry: Ancestry<'w, 's>,
     ticked: TickedAncestry<'w, 's>,
-    moved: Query<'w, 's, (), (With<StaticCollider>, Moved)>,
+    /// Targets moved: one tick read per target, as without hierarchies.
+    moved: Query<'w, 's, (), (With<StaticCollider>, Changed<Transform>)>,
+    /// Targets reparented: only those with a parent are looked at.
+    reparented: Query<'w, 's, (), (With<StaticCollider>, Changed<ChildOf>)>,
     moved_parts: Query<'w, 's, Entity, (PartFilter, With<Collider>, Moved)>,
     lost_transform: RemovedComponents<'w, 's, Transform>,
     lost_parent: RemovedComponents<'w, 's, ChildOf>,
@@ -116,6 +119,7 @@ fn stale(workspace: &CcdWorkspace, watch: &mut StaticWatch) -> bool {
         kinds,
         ticked,
         moved,
+        reparented,
         moved_parts,
         lost_transform,
         lost_parent,
@@ -133,6 +137,7 @@ fn stale(workspace: &CcdWorkspace, watch: &mut StaticWatch) -> bool {
         .chain(lost_parent.read())
         .fold(false, |lost, entity| lost | known(entity));
     lost || !moved.is_empty()
+        || !reparented.is_empty()
         || moved_parts
             .iter()
             .any(|e| workspace.static_part(e).is_some() || owner(e, kinds).is_some())
