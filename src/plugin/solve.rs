@@ -16,7 +16,7 @@ use super::record::step_length;
 use super::workspace::{
     BodyEntry, CcdWorkspace, HAS_MASS, HAS_VELOCITY, Lane, NUDGED, OVERLAPPING, WAS_CLEAR, Warned,
 };
-use super::write::{StaticTargets, WriteQuery, write_lane};
+use super::write::{WriteLookups, WriteQuery, write_lane};
 use super::{CcdConfig, CcdDiagnostics, Collider, Resolution, StaticCollider, StepPoses};
 use crate::geometry::constants::MAX_SUBSTEPS;
 use crate::geometry::{self, BodyState, ShapeProxy, SolveSettings, StaticSet, solve_body};
@@ -91,7 +91,7 @@ pub(crate) fn solve(
         ..
     } = workspace;
     let statics: &StaticSet = statics;
-    let targets = StaticTargets {
+    let targets = WriteLookups {
         entities: static_entities,
         colliders: static_colliders,
         child_frames,
