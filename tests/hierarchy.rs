@@ -253,12 +253,38 @@ fn each_part_of_a_compound_target_stops_a_ball_and_is_named() {
             .insert(CollisionLayers::new(OBSTACLE, u32::MAX));
         // A target that is its own collider names itself.
         let plain = spawn_wall(&mut app, Vec2::new(3.0, -6.0), 0.005, 0.5);
+        // A target on a layer the balls ignore: its parts take its layers, unless they have
+        // their own.
+        let hidden = app
+            .world_mut()
+            .spawn((
+                StaticCollider,
+                Transform::from_xyz(0.5, 0.0, 0.0),
+                CollisionLayers::new(OBSTACLE, u32::MAX),
+            ))
+            .id();
+        app.world_mut().spawn((
+            Collider::rectangle(0.005, 0.5).unwrap(),
+            Transform::from_xyz(2.0, 9.0, 0.0),
+            ChildOf(hidden),
+        ));
+        let overrides = app
+            .world_mut()
+            .spawn((
+                Collider::rectangle(0.005, 0.5).unwrap(),
+                Transform::from_xyz(2.0, 12.0, 0.0),
+                ChildOf(hidden),
+                CollisionLayers::new(WORLD, u32::MAX),
+            ))
+            .id();
         for (y, expect) in [
             (0.0, Some((target, wall))),
             (3.0, Some((target, disc))),
             (-3.0, Some((target, rod))),
             (6.0, None),
             (-6.0, Some((plain, plain))),
+            (9.0, None),
+            (12.0, Some((hidden, overrides))),
         ] {
             let ball = spawn_ball(
                 &mut app,
@@ -415,4 +441,89 @@ fn a_static_under_a_bad_chain_is_left_out() {
         assert!(hit && end.x + 0.1 <= 2.0 - 0.005, "{resolution:?}: {end}");
         assert_eq!(app.world().resource::<CcdDiagnostics>().statics, 1);
     }
+}
+
+#[test]
+fn moving_a_parent_between_steps_teleports_its_child_bodies() {
+    for resolution in [Resolution::Clamp, Resolution::default()] {
+        let mut app = app_with(resolution, Vec2::ZERO, false);
+        spawn_wall(&mut app, Vec2::new(2.0, 0.0), 0.005, 1.0);
+        let parent = app.world_mut().spawn(Transform::default()).id();
+        let ball = app
+            .world_mut()
+            .spawn((
+                Collider::circle(0.1).unwrap(),
+                CcdEnabled::default(),
+                Transform::from_xyz(1.0, 0.0, 0.0),
+                ChildOf(parent),
+            ))
+            .id();
+        step(&mut app);
+        assert_eq!(toi(&app, ball), CcdOutcome::Clear);
+        // Between steps, the parent jumps past the wall: a teleport, not swept.
+        app.world_mut()
+            .get_mut::<Transform>(parent)
+            .unwrap()
+            .translation
+            .x = 3.0;
+        step(&mut app);
+        let poses = *app.world().get::<StepPoses>(ball).unwrap();
+        assert_eq!(toi(&app, ball), CcdOutcome::Clear, "{resolution:?}");
+        assert_eq!(poses.start(), (Vec2::new(4.0, 0.0), 0.0), "{resolution:?}");
+        assert_eq!(position(&app, ball), Vec2::new(1.0, 0.0), "{resolution:?}");
+    }
+}
+
+#[test]
+fn reparented_added_and_removed_parts_are_seen_at_the_next_step() {
+    let mut app = app();
+    let (a, b) = {
+        let world = app.world_mut();
+        let a = world.spawn((StaticCollider, Transform::default())).id();
+        let b = world.spawn(Transform::from_xyz(0.0, 10.0, 0.0)).id();
+        (a, b)
+    };
+    let wall = app
+        .world_mut()
+        .spawn((
+            Collider::rectangle(0.005, 1.0).unwrap(),
+            Transform::from_xyz(2.0, 0.0, 0.0),
+            ChildOf(a),
+        ))
+        .id();
+    let fire = |app: &mut App, y: f32| shoot(app, Vec2::new(1.0, y), Vec2::new(100.0, 0.0), 2).1;
+    assert!(fire(&mut app, 0.0), "a part of target a");
+    // Moved under b, a plain entity: no longer a part of any target.
+    app.world_mut().entity_mut(wall).insert(ChildOf(b));
+    assert!(
+        !fire(&mut app, 0.0) && !fire(&mut app, 10.0),
+        "not a part any more"
+    );
+    // b made a target: its part is at y = 10.
+    app.world_mut().entity_mut(b).insert(StaticCollider);
+    assert!(
+        !fire(&mut app, 0.0) && fire(&mut app, 10.0),
+        "a part of target b"
+    );
+    // A target of its own moved under b (its `ChildOf` changed, not its `Transform`).
+    let own = spawn_wall(&mut app, Vec2::new(2.0, 20.0), 0.005, 1.0);
+    assert!(fire(&mut app, 20.0), "a root target");
+    app.world_mut().entity_mut(own).insert(ChildOf(b));
+    assert!(
+        !fire(&mut app, 20.0) && fire(&mut app, 30.0),
+        "moved under b"
+    );
+    // A child of a given a collider some steps after it was spawned (its collider's hook),
+    // then the collider removed.
+    let new = app
+        .world_mut()
+        .spawn((Transform::from_xyz(2.0, -5.0, 0.0), ChildOf(a)))
+        .id();
+    assert!(!fire(&mut app, -5.0), "no collider yet");
+    app.world_mut()
+        .entity_mut(new)
+        .insert(Collider::rectangle(0.005, 1.0).unwrap());
+    assert!(fire(&mut app, -5.0), "a new part");
+    app.world_mut().entity_mut(new).remove::<Collider>();
+    assert!(!fire(&mut app, -5.0), "its collider removed");
 }

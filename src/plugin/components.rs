@@ -156,6 +156,16 @@ impl Collider {
 /// Statics live in a bounding-volume hierarchy that is rebuilt when one is added, removed,
 /// moved or reshaped.
 ///
+/// A target may sit at any depth of a `ChildOf` hierarchy: its world pose is composed from the
+/// `Transform`s of its chain when the step runs, its collider scaled by the chain's uniform
+/// scale; moving an ancestor moves it at the next step, as a teleport. Its parts, the entities
+/// below it with a [`Collider`] and neither a `StaticCollider` nor a [`CcdEnabled`] of their
+/// own, are colliders of the same target ([`CcdImpact::target`](super::CcdImpact::target) names
+/// it, `target_collider` the part), each with its own [`CollisionLayers`](super::CollisionLayers)
+/// if it has them, else the target's. A target or part whose chain has no planar world pose (a
+/// missing `Transform`, a cycle, a scale that is not finite, positive and uniform, a rotation out
+/// of the plane) is left out of the hierarchy, with a warning.
+///
 /// ```
 /// use bevy_ccd::prelude::*;
 /// use bevy_ecs::prelude::*;

@@ -9,7 +9,7 @@ use bevy_ecs::system::{ReadOnlySystemParam, SystemParam};
 use bevy_reflect::prelude::*;
 use glam::Vec2;
 
-use super::write::StaticTargets;
+use super::write::WriteLookups;
 use crate::geometry::CandidateHit;
 
 /// An impact a body is about to be stopped or bounced by, as a [`CcdHooks`] sees it.
@@ -108,7 +108,7 @@ impl<A: CcdHooks, B: CcdHooks> CcdHooks for (A, B) {
 /// with the entities filled in, a panic caught (the impact kept, `panicked` raised).
 pub(crate) fn ask(
     hooks: &impl CcdHooks,
-    targets: &StaticTargets,
+    targets: &WriteLookups,
     panicked: &AtomicBool,
     (body, body_collider): (Entity, Entity),
     hit: &CandidateHit,

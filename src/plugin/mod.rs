@@ -77,8 +77,11 @@ use workspace::CcdWorkspace;
 /// ```
 ///
 /// Put your movement systems in `FixedUpdate`, or anywhere between [`CcdSystems::RecordStart`]
-/// and [`CcdSystems::Step`]. Bodies are root entities: their `Transform` is their world pose
-/// (x, y and the rotation about z; z and scale are left alone).
+/// and [`CcdSystems::Step`]. A root body's `Transform` is its world pose (x, y and the
+/// rotation about z; z and scale are left alone). Bodies and targets may also sit in a
+/// `ChildOf` hierarchy: world poses are composed from the `Transform`s when the step runs, and a
+/// child body's resolved pose is written back as the local `Transform` that gives it (see the
+/// README's "Hierarchies").
 ///
 /// # Schedules and sets
 ///
@@ -301,8 +304,8 @@ pub enum CcdStepSystems {
     ///
     /// With [`CcdConfig::parallel`], split over the pool from 4,096 bodies.
     RecordEnd,
-    /// Keeps the static hierarchy current: rebuilt when a static was added, removed, moved or
-    /// reshaped.
+    /// Keeps the static hierarchy current: rebuilt when a static or a part of one was added,
+    /// removed, moved, reparented or reshaped, or one of their ancestors moved.
     UpdateStatics,
     /// Lists the swept bodies, queries the hierarchy with each one's swept bound (the broad
     /// phase), runs its time of impact and resolution, and writes its `Transform`,

@@ -21,7 +21,7 @@ use super::workspace::{
     BodyEntry, COMPOUND, CcdWorkspace, HAS_MASS, HAS_VELOCITY, Lane, NUDGED, OVERLAPPING,
     WAS_CLEAR, Warned,
 };
-use super::write::{StaticTargets, WriteQuery, write_lane};
+use super::write::{WriteLookups, WriteQuery, write_lane};
 use super::{
     CcdConfig, CcdDiagnostics, Collider, CollisionLayers, Resolution, StaticCollider, StepPoses,
 };
@@ -109,7 +109,7 @@ pub(crate) fn solve<H: CcdHooks + 'static>(
         ..
     } = workspace;
     let statics: &StaticSet = statics;
-    let targets = StaticTargets {
+    let targets = WriteLookups {
         entities: static_entities,
         colliders: static_colliders,
         child_frames,

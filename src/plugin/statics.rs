@@ -55,7 +55,10 @@ pub(crate) struct StaticWatch<'w, 's> {
     kinds: Query<'w, 's, Kinds>,
     ancestry: Ancestry<'w, 's>,
     ticked: TickedAncestry<'w, 's>,
-    moved: Query<'w, 's, (), (Solid, Moved)>,
+    /// Targets moved: one tick read per target, as without hierarchies.
+    moved: Query<'w, 's, (), (Solid, Changed<Transform>)>,
+    /// Targets reparented: only those with a parent are looked at.
+    reparented: Query<'w, 's, (), (Solid, Changed<ChildOf>)>,
     moved_parts: Query<'w, 's, Entity, (PartFilter, With<Collider>, Moved)>,
     lost_transform: RemovedComponents<'w, 's, Transform>,
     lost_parent: RemovedComponents<'w, 's, ChildOf>,
@@ -121,6 +124,7 @@ fn stale(workspace: &CcdWorkspace, watch: &mut StaticWatch) -> bool {
         kinds,
         ticked,
         moved,
+        reparented,
         moved_parts,
         lost_transform,
         lost_parent,
@@ -138,6 +142,7 @@ fn stale(workspace: &CcdWorkspace, watch: &mut StaticWatch) -> bool {
         .chain(lost_parent.read())
         .fold(false, |lost, entity| lost | known(entity));
     lost || !moved.is_empty()
+        || !reparented.is_empty()
         || moved_parts
             .iter()
             .any(|e| workspace.static_part(e).is_some() || owner(e, kinds).is_some())

@@ -50,7 +50,7 @@ pub(crate) fn write_lane(
     chunk: &[BodyEntry],
     lane: &Lane,
     bodies: &mut WriteQuery,
-    targets: &StaticTargets,
+    targets: &WriteLookups,
     compounds: &Compounds,
 ) {
     let target = |index: u32| targets.entities[index as usize];
@@ -144,13 +144,13 @@ pub(crate) fn write_lane(
 
 /// What the write-back reads of the workspace besides the lane: each item's target and
 /// collider entity, and this step's child bodies' parent poses.
-pub(crate) struct StaticTargets<'a> {
+pub(crate) struct WriteLookups<'a> {
     pub(crate) entities: &'a [Entity],
     pub(crate) colliders: &'a [Entity],
     pub(crate) child_frames: &'a [(Entity, Result<Planar, CcdError>)],
 }
 
-impl StaticTargets<'_> {
+impl WriteLookups<'_> {
     /// A child body's parent pose, or why its chain has none; `None` for a root body. Looked
     /// up only when the step has child bodies, so that a world without them pays one test
     /// per written body.
