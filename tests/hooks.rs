@@ -483,3 +483,58 @@ fn one_way_platforms_give_the_same_bits_on_one_thread_or_many() {
         "the platforms changed nothing"
     );
 }
+
+/// Boxes dropped spinning onto a one-way platform under gravity (they land on corners, turn,
+/// and settle, their contacts shallow and sliding): held on the top side for five seconds, as
+/// by a plain target, in both modes.
+#[test]
+fn spinning_boxes_land_and_stay_on_a_one_way_platform() {
+    for resolution in MODES {
+        let mut app = app_with_plugin(
+            CcdPlugin::default().with_hooks::<OneWayPlatforms>(),
+            resolution,
+            G,
+        );
+        let platform = spawn_box(&mut app, Vec2::new(20.0, TOP), Vec2::ZERO);
+        app.world_mut()
+            .entity_mut(platform)
+            .insert(OneWayPlatform::default());
+        let boxes: Vec<_> = (0..20)
+            .map(|i| {
+                let at = Vec2::new(i as f32 - 10.0, 0.5 + 0.1 * i as f32);
+                let spin = Velocity {
+                    linear: Vec2::new(0.3 * (i % 5) as f32 - 0.6, -3.0 * (i % 4) as f32),
+                    angular: 7.0 * (i % 3) as f32 - 7.0,
+                };
+                app.world_mut()
+                    .spawn((
+                        Collider::rectangle(0.1 + 0.02 * (i % 3) as f32, 0.05).unwrap(),
+                        CcdEnabled::default(),
+                        spin,
+                        Restitution(0.3),
+                        Friction(0.4),
+                        bevy_transform::prelude::Transform::from_xyz(at.x, at.y, 0.0),
+                    ))
+                    .id()
+            })
+            .collect();
+        for n in 0..300 {
+            step(&mut app);
+            for &b in &boxes {
+                // The lowest point of the box above the top face, to within a slop: a
+                // contact may be pressed at most half a slop in (see `pair_toi`).
+                let low = body_aabb(&app, b).min.y - TOP;
+                assert!(
+                    low > -SLOP,
+                    "{resolution:?}, step {n}: {b:?} {low} m into it"
+                );
+            }
+        }
+        // All landed: resting on it (the slop above, with a centimetre for a box still
+        // rocking on a corner), none bounced away.
+        for &b in &boxes {
+            let low = body_aabb(&app, b).min.y - TOP;
+            assert!(low < 0.01, "{resolution:?}: {b:?} {low} m above it");
+        }
+    }
+}
