@@ -41,6 +41,8 @@ pub(crate) struct Compounds {
     layers: Vec<CollisionLayers>,
     /// The parts found this step, before they are grouped by body (kept to reuse its memory).
     found: Vec<Found>,
+    /// The last step's compound bodies, while this step's are listed (kept likewise).
+    before: Vec<Entity>,
 }
 
 /// A part found by [`update_compounds`]: its body, its entity, and its shape and unit mass in
@@ -164,14 +166,17 @@ pub(crate) fn update_compounds(
     if parts.is_empty() && compounds.bodies.is_empty() {
         return;
     }
-    let previous = core::mem::take(&mut compounds.bodies);
     let Compounds {
         bodies: list,
         shapes,
         entities,
         layers: part_layers,
         found,
+        before,
     } = compounds;
+    before.clear();
+    before.extend(list.iter().map(|b| b.body));
+    list.clear();
     shapes.clear();
     entities.clear();
     part_layers.clear();
@@ -237,9 +242,9 @@ pub(crate) fn update_compounds(
         });
     }
     // A body that lost its last part is its own collider again.
-    for gone in previous {
-        if compounds.find(gone.body).is_none()
-            && let Ok((Some(collider), mut poses)) = bodies.get_mut(gone.body)
+    for &gone in &compounds.before {
+        if compounds.find(gone).is_none()
+            && let Ok((Some(collider), mut poses)) = bodies.get_mut(gone)
         {
             super::components::summarize(collider, poses.bypass_change_detection());
         }
