@@ -5,7 +5,8 @@
 //! The solver's parts, one file each: `static_set` (the targets, their hierarchy and per-target
 //! records), `cull` (the bounds that rule pairs out before the time of impact), `pair` (the
 //! time of impact of one body against one target, start contacts included), `response` (the
-//! contact impulse) and `body_solver` (one body's step: sub-steps, clamping, outcome).
+//! contact impulse), `body_solver` (one body's step: sub-steps, clamping, outcome) and `sensor`
+//! (where a body's travelled path enters and leaves sensors).
 
 pub(crate) mod body_solver;
 mod bvh;

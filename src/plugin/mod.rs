@@ -4,7 +4,8 @@
 //!
 //! One file per phase: `record` (start and end poses), `statics` (the static hierarchy),
 //! `solve` (listing, broad phase and solver per lane, with `gather` and `write`), `impacts`
-//! (messages); `parallel` hands out the work of each.
+//! (messages); `sensors` (the sensors' hierarchy, their crossings) and `events` (the entity
+//! events of [`CcdEvents`]); `parallel` hands out the work of each.
 
 #[cfg(any(test, feature = "testing"))]
 mod arena;
