@@ -7,9 +7,7 @@
 
 use bevy::prelude::*;
 use bevy_ccd::debug::CcdDebugPlugin;
-use bevy_ccd::prelude::{
-    CcdEnabled, CcdPlugin, Collider, Restitution, StaticCollider, Velocity,
-};
+use bevy_ccd::prelude::{CcdEnabled, CcdPlugin, Collider, Restitution, StaticCollider, Velocity};
 
 /// Muzzle speed (m/s).
 const SPEED: f32 = 300.0;
@@ -65,7 +63,10 @@ fn fire(
     commands.spawn((
         Collider::circle(0.05).expect("a positive radius"),
         CcdEnabled::default(),
-        Velocity { linear: direction * SPEED, angular: 0.0 },
+        Velocity {
+            linear: direction * SPEED,
+            angular: 0.0,
+        },
         Restitution(0.5),
         Transform::from_translation(muzzle.extend(0.0)),
         Bullet(Timer::from_seconds(3.0, TimerMode::Once)),

@@ -23,9 +23,16 @@ fn drawn(app: &bevy_app::App) -> (Vec<(Vec3, Vec3)>, Vec<Vec3>) {
     let Some(Some(handle)) = handles.handles().get(&TypeId::of::<CcdGizmos>()) else {
         return (Vec::new(), Vec::new());
     };
-    let asset = world.resource::<Assets<GizmoAsset>>().get(handle).expect("built this frame");
+    let asset = world
+        .resource::<Assets<GizmoAsset>>()
+        .get(handle)
+        .expect("built this frame");
     let view = asset.buffer().buffer();
-    let pairs = view.list_positions.chunks(2).map(|p| (p[0], p[1])).collect();
+    let pairs = view
+        .list_positions
+        .chunks(2)
+        .map(|p| (p[0], p[1]))
+        .collect();
     (pairs, view.strip_positions.clone())
 }
 
@@ -45,7 +52,10 @@ fn scene(colours: CcdGizmos) -> (bevy_app::App, Entity) {
         .spawn((
             Collider::circle(0.25).unwrap(),
             CcdEnabled::default(),
-            Velocity { linear: Vec2::new(600.0, 0.0), angular: 0.0 },
+            Velocity {
+                linear: Vec2::new(600.0, 0.0),
+                angular: 0.0,
+            },
             Transform::default(),
         ))
         .id();
@@ -67,29 +77,54 @@ fn the_wall_the_sweep_and_the_impact_are_drawn() {
     // The wall's outline: its four corners.
     for corner in [(4.9, -2.0), (5.1, -2.0), (5.1, 2.0), (4.9, 2.0)] {
         let corner = Vec3::new(corner.0, corner.1, 0.0);
-        assert!(strip.iter().any(|&p| near(p, corner)), "corner {corner} not drawn");
+        assert!(
+            strip.iter().any(|&p| near(p, corner)),
+            "corner {corner} not drawn"
+        );
     }
     // The sweep: the origin's path from the start to the resolved pose.
     let path = (Vec3::ZERO, resolved.extend(0.0));
-    assert!(pairs.iter().any(|&(a, b)| near(a, path.0) && near(b, path.1)), "no sweep line {path:?}");
+    assert!(
+        pairs
+            .iter()
+            .any(|&(a, b)| near(a, path.0) && near(b, path.1)),
+        "no sweep line {path:?}"
+    );
     // The ball at its resolved pose: a circle of radius 0.25 about it.
     assert!(
-        strip.iter().any(|&p| ((p - path.1).length() - 0.25).abs() <= ROUND),
+        strip
+            .iter()
+            .any(|&p| ((p - path.1).length() - 0.25).abs() <= ROUND),
         "no outline at the resolved pose"
     );
     // The impact's normal, half a metre from its point, pointing back at the ball (-x).
-    let normal = (hit.point.extend(0.0), (hit.point + 0.5 * hit.normal).extend(0.0));
-    assert!(pairs.iter().any(|&(a, b)| near(a, normal.0) && near(b, normal.1)), "no normal {normal:?}");
+    let normal = (
+        hit.point.extend(0.0),
+        (hit.point + 0.5 * hit.normal).extend(0.0),
+    );
+    assert!(
+        pairs
+            .iter()
+            .any(|&(a, b)| near(a, normal.0) && near(b, normal.1)),
+        "no normal {normal:?}"
+    );
     assert!(hit.normal.x < -0.99);
 }
 
 #[test]
 fn parts_set_to_none_are_not_drawn() {
-    let (mut app, _) = scene(CcdGizmos { statics: None, impacts: None, ..Default::default() });
+    let (mut app, _) = scene(CcdGizmos {
+        statics: None,
+        impacts: None,
+        ..Default::default()
+    });
     app.step_fixed(1);
     let (pairs, strip) = drawn(&app);
     let corner = Vec3::new(5.1, 2.0, 0.0);
-    assert!(!strip.iter().any(|&p| (p - corner).length() <= ROUND), "the wall was drawn");
+    assert!(
+        !strip.iter().any(|&p| (p - corner).length() <= ROUND),
+        "the wall was drawn"
+    );
     // Only the sweep line is left in the line list (the impact's cross and normal are out).
     assert_eq!(pairs.len(), 1, "{pairs:?}");
 }

@@ -29,7 +29,7 @@ mod toi;
 
 pub use body_solver::Resolution;
 #[cfg(any(test, feature = "testing"))]
-pub(crate) use body_solver::{solve_body, solve_compound_body};
+pub(crate) use body_solver::solve_body;
 pub(crate) use body_solver::{
     BodyOutcome, BodyPart, BodyState, CandidateHit, Compound, ImpactRecord, SolveSettings,
     solve_body_filtered, solve_compound_body_filtered,

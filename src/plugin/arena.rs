@@ -175,11 +175,6 @@ fn compound_parts(rng: &mut SceneRng) -> Vec<(Collider, Vec2, f32)> {
     parts
 }
 
-fn pose_of(transform: &Transform) -> Pose {
-    let (p, angle) = super::components::planar_pose(transform);
-    Pose::new(p, angle)
-}
-
 /// Spawns the walls, obstacles and bodies of an arena into `world`.
 ///
 /// Bodies get a [`Velocity`] (a random direction, log-uniform speed, random spin), random

@@ -6,9 +6,9 @@
 use bevy_app::prelude::*;
 use bevy_color::Color;
 use bevy_ecs::prelude::*;
+use bevy_gizmos::AppGizmoBuilder;
 use bevy_gizmos::config::GizmoConfigGroup;
 use bevy_gizmos::prelude::Gizmos;
-use bevy_gizmos::AppGizmoBuilder;
 use bevy_reflect::prelude::*;
 use glam::Vec2;
 
@@ -91,7 +91,12 @@ fn draw_ccd(
     let colours = gizmos.config_ext.clone();
     if let Some(colour) = colours.statics {
         for item in workspace.statics.items() {
-            outline(&mut gizmos, &item.proxy, Pose::new(item.position, item.angle), colour);
+            outline(
+                &mut gizmos,
+                &item.proxy,
+                Pose::new(item.position, item.angle),
+                colour,
+            );
         }
     }
     for (collider, poses) in &bodies {
@@ -100,15 +105,29 @@ fn draw_ccd(
         }
         let (start, start_angle) = poses.start();
         let (end, end_angle) = poses.resolved();
-        if !(start.is_finite() && end.is_finite() && start_angle.is_finite() && end_angle.is_finite()) {
+        if !(start.is_finite()
+            && end.is_finite()
+            && start_angle.is_finite()
+            && end_angle.is_finite())
+        {
             continue;
         }
         if let Some(colour) = colours.sweeps {
-            outline(&mut gizmos, collider.proxy(), Pose::new(start, start_angle), colour);
+            outline(
+                &mut gizmos,
+                collider.proxy(),
+                Pose::new(start, start_angle),
+                colour,
+            );
             gizmos.line_2d(start, end, colour);
         }
         if let Some(colour) = colours.bodies {
-            outline(&mut gizmos, collider.proxy(), Pose::new(end, end_angle), colour);
+            outline(
+                &mut gizmos,
+                collider.proxy(),
+                Pose::new(end, end_angle),
+                colour,
+            );
         }
     }
     let Some(colour) = colours.impacts else {
@@ -117,13 +136,21 @@ fn draw_ccd(
     };
     for impact in impacts.read() {
         let size = 0.2 * colours.normal_length;
-        gizmos.line_2d(impact.point - Vec2::splat(size), impact.point + Vec2::splat(size), colour);
+        gizmos.line_2d(
+            impact.point - Vec2::splat(size),
+            impact.point + Vec2::splat(size),
+            colour,
+        );
         gizmos.line_2d(
             impact.point + Vec2::new(-size, size),
             impact.point + Vec2::new(size, -size),
             colour,
         );
-        gizmos.line_2d(impact.point, impact.point + colours.normal_length * impact.normal, colour);
+        gizmos.line_2d(
+            impact.point,
+            impact.point + colours.normal_length * impact.normal,
+            colour,
+        );
     }
 }
 
@@ -164,7 +191,10 @@ fn outline(gizmos: &mut Gizmos<CcdGizmos>, proxy: &ShapeProxy, pose: Pose, colou
         }
         gizmos.linestrip_2d(strip, colour);
     } else {
-        let closed = points.iter().chain(points.first()).map(|&p| pose.transform_point(p));
+        let closed = points
+            .iter()
+            .chain(points.first())
+            .map(|&p| pose.transform_point(p));
         gizmos.linestrip_2d(closed, colour);
     }
 }

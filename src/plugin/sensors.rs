@@ -139,6 +139,9 @@ impl SensorLane {
     }
 }
 
+/// Moved or reparented since the last run.
+type Moved = Or<(Changed<Transform>, Changed<ChildOf>)>;
+
 /// A sensor: a [`StaticCollider`] with [`Sensor`].
 type IsSensor = (With<Sensor>, With<StaticCollider>);
 
@@ -156,7 +159,7 @@ pub(crate) struct SensorWatch<'w, 's> {
         ),
         IsSensor,
     >,
-    moved: Query<'w, 's, (), (IsSensor, Or<(Changed<Transform>, Changed<ChildOf>)>)>,
+    moved: Query<'w, 's, (), (IsSensor, Moved)>,
     stray: Query<'w, 's, Entity, (With<Sensor>, Without<StaticCollider>)>,
     ancestry: Ancestry<'w, 's>,
     ticked: TickedAncestry<'w, 's>,

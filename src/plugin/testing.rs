@@ -64,7 +64,7 @@ pub fn rewind(transform: &mut Mut<Transform>, poses: &mut Mut<StepPoses>, to: Tr
     poses.resolved_position = position;
     poses.resolved_angle = angle;
 }
-use super::{CcdConfig, CcdEnabled, CcdPlugin, StaticCollider, StepPoses, Velocity};
+use super::{CcdConfig, CcdEnabled, CcdPlugin, Collider, StaticCollider, StepPoses, Velocity};
 use crate::geometry::{Aabb, LINEAR_SLOP};
 
 /// An app with the time and CCD plugins where every `update` runs exactly one fixed step of
@@ -365,4 +365,3 @@ mod tests {
         }
     }
 }
-
