@@ -206,3 +206,35 @@ fn arena_bodies_on_a_layer_that_ignores_the_obstacles_stay_inside() {
         );
     }
 }
+
+/// A sub-step's own hierarchy query is not the broad phase's: a ball bouncing off a wall back
+/// through a target its layers rule out, within one step, passes it. The ignored wall (x = 1)
+/// is behind the ball (x = 1.5) at the start, outside the first sweep's bound (toward +x), so
+/// only the sub-step after the bounce off the kept wall (x = 2) reaches it.
+#[test]
+fn a_sub_step_passes_a_target_the_layers_rule_out() {
+    let mut app = app_with(Resolution::SubStep { max_substeps: 4 }, Vec2::ZERO, true);
+    let kept = spawn_wall(&mut app, Vec2::new(2.005, 0.0), 0.005, 1.0);
+    let ignored = spawn_wall(&mut app, Vec2::new(0.995, 0.0), 0.005, 1.0);
+    app.world_mut()
+        .entity_mut(ignored)
+        .insert(CollisionLayers::new(OBSTACLE, u32::MAX));
+    let ball = spawn_ball(
+        &mut app,
+        0.1,
+        Vec2::new(1.5, 0.0),
+        Vec2::new(120.0, 0.0),
+        Restitution(1.0),
+    );
+    app.world_mut()
+        .entity_mut(ball)
+        .insert(CollisionLayers::new(PLAYER, WORLD));
+    step(&mut app);
+    // 2 m a step: 0.395 m to the kept wall, then 1.6 m back, through x = 1 to about 0.3.
+    let hit = toi(&app, ball).first_hit().map(|h| h.target);
+    assert_eq!(hit, Some(kept));
+    let log = app.world().resource::<Log>();
+    assert!(log.impacts.iter().all(|(_, i)| i.target != ignored), "{:?}", log.impacts);
+    let x = position(&app, ball).x;
+    assert!(x < 0.9 - 0.1, "the ball stopped at {x}");
+}

@@ -8,7 +8,8 @@ use glam::Vec2;
 use super::compound::Compounds;
 use super::outcome::{CcdError, CcdOutcome};
 use super::workspace::{
-    BodyEntry, COLLIDER_MASS_OK, COMPOUND, HAS_MASS, HAS_VELOCITY, Lane, WAS_CLEAR, Warned,
+    BodyEntry, COLLIDER_MASS_OK, COMPOUND, HAS_LAYERS, HAS_MASS, HAS_VELOCITY, Lane, LayersOf,
+    WAS_CLEAR, Warned, any_layered,
 };
 use super::{
     BodyMass, Collider, CollisionLayers, Friction, Restitution, StaticCollider, StepPoses,
@@ -50,7 +51,6 @@ impl BodyEntry {
             angle: 0.0,
             flags: if poses.mass_ok { COLLIDER_MASS_OK } else { 0 },
             error: None,
-            layers: CollisionLayers::DEFAULT,
             reach: poses.reach,
         }
     }
@@ -132,12 +132,11 @@ pub(crate) fn list_bodies<'a>(
             entry.angular = v.angular;
             entry.flags |= HAS_VELOCITY;
         }
-        if let Some(layers) = layers {
-            entry.layers = *layers;
+        if layers.is_some_and(|l| *l != CollisionLayers::DEFAULT) {
+            entry.flags |= HAS_LAYERS;
         }
         if let Some(compound) = compound {
             entry.flags |= COMPOUND;
-            entry.layers = compound.layers;
             entry.error = compound.error;
         }
         if let Some(m) = mass {
@@ -233,6 +232,8 @@ pub(crate) struct Gather<'a, 'w, 's, 'c> {
     pub(crate) grouping: bool,
     /// Each target's layers, in target order; empty when all have the default.
     pub(crate) static_layers: &'a [CollisionLayers],
+    /// The bodies' layers.
+    pub(crate) body_layers: LayersOf<'a>,
 }
 
 impl Gather<'_, '_, '_, '_> {
@@ -241,8 +242,7 @@ impl Gather<'_, '_, '_, '_> {
     /// get an error and no candidate.
     pub(crate) fn lane(&self, chunk: &mut [BodyEntry], lane: &mut Lane) {
         self.query_lane(chunk, lane);
-        let layered = !self.static_layers.is_empty()
-            || chunk.iter().any(|b| b.layers != CollisionLayers::DEFAULT);
+        let layered = !self.static_layers.is_empty() || any_layered(chunk);
         if layered {
             self.filter_layers(chunk, lane);
         }
@@ -260,11 +260,12 @@ impl Gather<'_, '_, '_, '_> {
         };
         let mut kept = 0;
         for body in chunk {
+            let layers = (self.body_layers)(body);
             let (start, count) = (body.candidates as usize, body.candidate_count as usize);
             let first = kept;
             for read in start..start + count {
                 let target = lane.candidates[read];
-                if body.layers.interacts(layers_of(target)) {
+                if layers.interacts(layers_of(target)) {
                     lane.candidates[kept] = target;
                     kept += 1;
                 }

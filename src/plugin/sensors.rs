@@ -11,6 +11,7 @@ use bevy_transform::components::Transform;
 
 use super::hierarchy::{Ancestry, TickedAncestry, moved_since, pose_in, push_ancestors};
 use super::outcome::CcdError;
+use super::solve::Shared;
 use super::workspace::{BodyEntry, CcdWorkspace, Lane};
 use super::{CcdConfig, Collider, CollisionLayers, StaticCollider};
 use crate::geometry::sensor::{CrossingRecord, PathPiece, sense_path};
@@ -243,15 +244,16 @@ pub(crate) fn sense_lane(
     lane: &mut Lane,
     sensors: &SensorWorld,
     colliders: &Query<&Collider, Without<StaticCollider>>,
-    linear_slop: f32,
+    shared: &Shared,
 ) {
+    let linear_slop = shared.settings.linear_slop;
     let SensorLane {
         path,
         paths,
         crossings,
         crossed,
         scratch,
-    } = &mut lane.sensing;
+    } = &mut *lane.sensing;
     crossings.clear();
     crossed.clear();
     // A compound body is solved as soon as it is listed, ahead of the batch before it.
@@ -279,7 +281,8 @@ pub(crate) fn sense_lane(
             continue;
         };
         let start = crossings.len();
-        let accepts = |sensor: u32| body.layers.interacts(sensors.layers[sensor as usize]);
+        let layers = (shared.body_layers)(body);
+        let accepts = |sensor: u32| layers.interacts(sensors.layers[sensor as usize]);
         let proxy = collider.proxy();
         sense_path(
             proxy,

@@ -18,8 +18,8 @@ use super::parallel::{MAX_ITEMS, hand_out, pool, workers};
 use super::record::step_length;
 use super::sensors::{SensorLane, SensorWorld, sense_lane};
 use super::workspace::{
-    BodyEntry, COMPOUND, CcdWorkspace, HAS_MASS, HAS_VELOCITY, Lane, NUDGED, OVERLAPPING,
-    WAS_CLEAR, Warned,
+    BodyEntry, BodyLayers, COMPOUND, CcdWorkspace, HAS_MASS, HAS_VELOCITY, Lane, LayersOf, NUDGED,
+    OVERLAPPING, WAS_CLEAR, Warned,
 };
 use super::write::{WriteLookups, WriteQuery, write_lane};
 use super::{
@@ -64,6 +64,7 @@ pub(crate) fn solve<H: CcdHooks + 'static>(
     (ticks, compounds): (SystemChangeTick, Res<Compounds>),
     mut queries: ParamSet<(ListQuery, WriteQuery)>,
     colliders: Query<&Collider, Without<StaticCollider>>,
+    layers: Query<&CollisionLayers, Without<StaticCollider>>,
 ) where
     for<'w, 's> SystemParamItem<'w, 's, H>: CcdHooks,
 {
@@ -128,6 +129,11 @@ pub(crate) fn solve<H: CcdHooks + 'static>(
             BodyEntry::new(Entity::PLACEHOLDER, &StepPoses::default()),
         );
     }
+    let body_layers = BodyLayers {
+        query: &layers,
+        compounds,
+    };
+    let body_layers = |body: &BodyEntry| body_layers.of(body);
     let gather = Gather {
         statics,
         colliders: &colliders,
@@ -136,6 +142,7 @@ pub(crate) fn solve<H: CcdHooks + 'static>(
         margin: config.linear_slop,
         grouping: most >= GROUP_MIN_BODIES && statics.bvh().walks_groups(),
         static_layers,
+        body_layers: &body_layers,
     };
     let hooks = &*hooks;
     let hook_panicked = AtomicBool::new(false);
@@ -166,6 +173,7 @@ pub(crate) fn solve<H: CcdHooks + 'static>(
                     settings: &settings,
                     accept: &accept,
                     sensors,
+                    body_layers: &body_layers,
                 };
                 solve_lane(chunk, lane, &shared, &colliders);
             },
@@ -237,6 +245,8 @@ pub(crate) struct Shared<'a> {
     pub(crate) accept: &'a (dyn Fn(Entity, Entity, &CandidateHit) -> bool + Sync),
     /// The sensors, when the world has any: then each body's path is recorded.
     pub(crate) sensors: Option<&'a SensorWorld>,
+    /// The bodies' layers.
+    pub(crate) body_layers: LayersOf<'a>,
 }
 
 /// Stores what the solver did with a body in its entry.
@@ -369,7 +379,7 @@ pub(crate) fn solve_lane(
                 let list = &candidates[start..start + body.candidate_count as usize];
                 if body.flags & COMPOUND != 0 {
                     // Rare: solved at once, its impacts kept together as any body's.
-                    solve_compound(body, shared, list, scratch, impacts, (sensing, next));
+                    solve_compound(body, shared, list, scratch, impacts, (&mut *sensing, next));
                     next += 1;
                     continue;
                 }
@@ -403,8 +413,9 @@ pub(crate) fn solve_lane(
             // own query is not, so an impact with a target the layers rule out is refused
             // here (the solver then ignores that target for the rest of the step).
             let accept = |hit: &CandidateHit| {
-                let layers = shared.static_layers.get(hit.target as usize);
-                entry.layers.interacts(layers.copied().unwrap_or_default())
+                let target = shared.static_layers.get(hit.target as usize);
+                let target = target.copied().unwrap_or_default();
+                (shared.body_layers)(entry).interacts(target)
                     && (shared.accept)(entry.entity, entry.entity, hit)
             };
             let from = sensing.path.len();
@@ -425,7 +436,7 @@ pub(crate) fn solve_lane(
     }
     core::hint::black_box(touched);
     if let Some(sensors) = shared.sensors {
-        sense_lane(chunk, lane, sensors, colliders, shared.settings.linear_slop);
+        sense_lane(chunk, lane, sensors, colliders, shared);
     }
     let Lane { hit, visit, .. } = lane;
     // The bodies the write-back must visit, and those with impact messages. Every other

@@ -6,10 +6,11 @@ use bevy_ecs::change_detection::Tick;
 use bevy_ecs::prelude::*;
 use glam::Vec2;
 
-use super::CollisionLayers;
+use super::compound::Compounds;
 use super::hierarchy::Planar;
 use super::outcome::CcdError;
 use super::sensors::{SensorLane, SensorWorld};
+use super::{CollisionLayers, StaticCollider};
 use crate::geometry::{self, ImpactRecord, StaticSet};
 
 /// One CCD body of this step: what the solver needs, then what it did.
@@ -43,8 +44,6 @@ pub(crate) struct BodyEntry {
     pub(crate) flags: u8,
     /// Why the body was not swept, or the time of impact that failed.
     pub(crate) error: Option<CcdError>,
-    /// The body's collision layers.
-    pub(crate) layers: CollisionLayers,
     /// The shape's reach about its centre of mass ([`StepPoses`](super::StepPoses)' copy of the
     /// collider's).
     pub(crate) reach: f32,
@@ -67,6 +66,41 @@ pub(crate) const NUDGED: u8 = 32;
 /// [`BodyEntry::flags`]: the body has child colliders
 /// ([`Compounds`](super::compound::Compounds)).
 pub(crate) const COMPOUND: u8 = 64;
+/// [`BodyEntry::flags`]: the body has its own [`CollisionLayers`] (read through
+/// [`BodyLayers`] where needed: layered bodies are few, and the entry stays 8 bytes smaller).
+pub(crate) const HAS_LAYERS: u8 = 128;
+
+/// A body's collision layers: its own component's, a compound body's union of its parts',
+/// else the default. Looked up only for bodies flagged [`HAS_LAYERS`] or [`COMPOUND`].
+pub(crate) struct BodyLayers<'a, 'w, 's, 'c> {
+    pub(crate) query: &'a Query<'w, 's, &'c CollisionLayers, Without<StaticCollider>>,
+    pub(crate) compounds: &'a Compounds,
+}
+
+/// [`BodyLayers::of`] as the lanes share it.
+pub(crate) type LayersOf<'a> = &'a (dyn Fn(&BodyEntry) -> CollisionLayers + Sync);
+
+impl BodyLayers<'_, '_, '_, '_> {
+    /// The layers of `body`.
+    #[inline]
+    pub(crate) fn of(&self, body: &BodyEntry) -> CollisionLayers {
+        if body.flags & COMPOUND != 0 {
+            self.compounds
+                .find(body.entity)
+                .map_or(CollisionLayers::DEFAULT, |c| c.layers)
+        } else if body.flags & HAS_LAYERS != 0 {
+            self.query.get(body.entity).copied().unwrap_or_default()
+        } else {
+            CollisionLayers::DEFAULT
+        }
+    }
+}
+
+/// Whether any body of `chunk` may have other than the default layers.
+#[inline]
+pub(crate) fn any_layered(chunk: &[BodyEntry]) -> bool {
+    chunk.iter().any(|b| b.flags & (HAS_LAYERS | COMPOUND) != 0)
+}
 
 /// The buffers of one lane: a contiguous run of bodies that one thread lists, queries,
 /// solves and writes back. Flat lists instead of one small vector per body: a few bytes per
@@ -82,7 +116,7 @@ pub(crate) struct Lane {
     pub(crate) visit: Vec<u32>,
     pub(crate) scratch: Vec<u32>,
     /// The paths and crossings of the lane's bodies, when the world has sensors.
-    pub(crate) sensing: SensorLane,
+    pub(crate) sensing: Box<SensorLane>,
 }
 
 impl Lane {
