@@ -16,7 +16,8 @@
 //!                                   # time-of-impact statistics per pair class first;
 //!                                   # SCENE_SPEEDUP=1: three paired 1-vs-2-thread ratios,
 //!                                   # step by step and in blocks; SCENE_SPEEDUP_BLOCK and
-//!                                   # SCENE_SPEEDUP_DROP: other block lengths and drops)
+//!                                   # SCENE_SPEEDUP_DROP: other block lengths and drops;
+//!                                   # SCENE_LAYERS=1: 32 layers in use and a hook)
 //! ```
 //!
 //! The machine this runs on drifts by more than the targets' margins over minutes, so each
@@ -52,7 +53,9 @@ use bevy_app::{App, FixedFirst, FixedPostUpdate};
 use bevy_ccd::geometry;
 use bevy_ccd::prelude::*;
 use bevy_ccd::testing::solver::{BodyState, SolveSettings, StaticItem, StaticSet, solve_body};
-use bevy_ccd::testing::{Level, LevelConfig, generate_level, headless_app, rewind, spawn_level};
+use bevy_ccd::testing::{
+    Level, LevelConfig, generate_level, headless_app, headless_app_with, rewind, spawn_level,
+};
 use bevy_ecs::message::Messages;
 use bevy_ecs::prelude::*;
 use bevy_ecs::query::QueryState;
@@ -148,7 +151,18 @@ impl Ours {
     /// `stamped`: with the five timestamp systems between the CCD sets, for the phase split.
     /// They cost the executor about 5 µs a step, so the step times are taken without them.
     fn new(level: &Level, stamped: bool) -> Self {
-        let mut app = headless_app(DT as f64);
+        // `SCENE_LAYERS=1`: every body and static on one of 32 layers (all interacting, so
+        // the same physics) and the one-way platform hook asked at every impact (no platform
+        // in the level, so it vetoes nothing): the cost of layers and hooks in use.
+        let layered = std::env::var_os("SCENE_LAYERS").is_some();
+        let mut app = if layered {
+            headless_app_with(
+                DT as f64,
+                CcdPlugin::default().with_hooks::<OneWayPlatforms>(),
+            )
+        } else {
+            headless_app(DT as f64)
+        };
         app.insert_resource(CcdConfig {
             timestep: Some(DT),
             ..Default::default()
@@ -173,6 +187,12 @@ impl Ours {
             );
         }
         let arena = spawn_level(app.world_mut(), level, true);
+        if layered {
+            let on_layer = |i: usize| CollisionLayers::new(1 << (i % 32), u32::MAX);
+            for (i, &e) in arena.bodies.iter().chain(&arena.statics).enumerate() {
+                app.world_mut().entity_mut(e).insert(on_layer(i));
+            }
+        }
         let start = level
             .bodies
             .iter()

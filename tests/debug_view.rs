@@ -47,6 +47,13 @@ fn scene(colours: CcdGizmos) -> (bevy_app::App, Entity) {
         StaticCollider,
         Transform::from_xyz(5.0, 0.0, 0.0),
     ));
+    // A trigger pad the ball crosses on its way (faces at 1.95 and 2.05, 2 m tall).
+    app.world_mut().spawn((
+        Collider::rectangle(0.05, 1.0).unwrap(),
+        StaticCollider,
+        Sensor,
+        Transform::from_xyz(2.0, 0.0, 0.0),
+    ));
     let ball = app
         .world_mut()
         .spawn((
@@ -109,6 +116,30 @@ fn the_wall_the_sweep_and_the_impact_are_drawn() {
         "no normal {normal:?}"
     );
     assert!(hit.normal.x < -0.99);
+    // The sensor's outline, and a circle (radius 0.05 m) where the ball entered and left it.
+    for corner in [(1.95, -1.0), (2.05, 1.0)] {
+        let corner = Vec3::new(corner.0, corner.1, 0.0);
+        assert!(
+            strip.iter().any(|&p| near(p, corner)),
+            "sensor corner {corner} not drawn"
+        );
+    }
+    let crossings: Vec<CcdSensorCrossing> = app
+        .world()
+        .resource::<bevy_ecs::message::Messages<CcdSensorCrossing>>()
+        .iter_current_update_messages()
+        .copied()
+        .collect();
+    assert_eq!(crossings.len(), 2, "{crossings:?}");
+    for crossing in crossings {
+        let at = (resolved * crossing.fraction).extend(0.0);
+        assert!(
+            strip
+                .iter()
+                .any(|&p| ((p - at).length() - 0.05).abs() <= ROUND),
+            "no circle at the crossing {at}"
+        );
+    }
 }
 
 #[test]
@@ -116,6 +147,8 @@ fn parts_set_to_none_are_not_drawn() {
     let (mut app, _) = scene(CcdGizmos {
         statics: None,
         impacts: None,
+        sensors: None,
+        crossings: None,
         ..Default::default()
     });
     app.step_fixed(1);

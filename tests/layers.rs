@@ -234,7 +234,11 @@ fn a_sub_step_passes_a_target_the_layers_rule_out() {
     let hit = toi(&app, ball).first_hit().map(|h| h.target);
     assert_eq!(hit, Some(kept));
     let log = app.world().resource::<Log>();
-    assert!(log.impacts.iter().all(|(_, i)| i.target != ignored), "{:?}", log.impacts);
+    assert!(
+        log.impacts.iter().all(|(_, i)| i.target != ignored),
+        "{:?}",
+        log.impacts
+    );
     let x = position(&app, ball).x;
     assert!(x < 0.9 - 0.1, "the ball stopped at {x}");
 }

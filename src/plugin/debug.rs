@@ -13,7 +13,7 @@ use bevy_reflect::prelude::*;
 use glam::Vec2;
 
 use super::workspace::CcdWorkspace;
-use super::{CcdImpact, Collider, StepPoses};
+use super::{CcdImpact, CcdSensorCrossing, Collider, StepPoses};
 use crate::geometry::{Pose, ShapeProxy};
 
 /// Draws what CCD sees and did, with the [`CcdGizmos`] colours (a gizmo config group: turn
@@ -54,6 +54,12 @@ pub struct CcdGizmos {
     pub sweeps: Option<Color>,
     /// The step's impacts: a cross at the point and the normal from it. The default is red.
     pub impacts: Option<Color>,
+    /// The [`Sensor`](super::Sensor)s, as the plugin indexed them. The default is a green.
+    pub sensors: Option<Color>,
+    /// The step's sensor crossings: a circle where the body's origin was when it entered or
+    /// left a sensor (on the straight line from its start to its resolved pose). The default
+    /// is yellow.
+    pub crossings: Option<Color>,
     /// Length of the drawn normals (m). The default is 0.5.
     pub normal_length: f32,
 }
@@ -65,6 +71,8 @@ impl Default for CcdGizmos {
             bodies: Some(Color::srgb(0.45, 0.75, 1.0)),
             sweeps: Some(Color::srgba(0.3, 0.5, 0.9, 0.5)),
             impacts: Some(Color::srgb(1.0, 0.2, 0.2)),
+            sensors: Some(Color::srgb(0.3, 0.9, 0.4)),
+            crossings: Some(Color::srgb(1.0, 0.9, 0.2)),
             normal_length: 0.5,
         }
     }
@@ -86,18 +94,38 @@ fn draw_ccd(
     mut gizmos: Gizmos<CcdGizmos>,
     workspace: Res<CcdWorkspace>,
     bodies: Query<(&Collider, &StepPoses)>,
+    poses: Query<&StepPoses>,
     mut impacts: MessageReader<CcdImpact>,
+    mut crossings: MessageReader<CcdSensorCrossing>,
 ) {
     let colours = gizmos.config_ext.clone();
-    if let Some(colour) = colours.statics {
-        for item in workspace.statics.items() {
-            outline(
-                &mut gizmos,
-                &item.proxy,
-                Pose::new(item.position, item.angle),
-                colour,
-            );
+    let sets = [
+        (colours.statics, &workspace.statics),
+        (colours.sensors, &workspace.sensors.set),
+    ];
+    for (colour, set) in sets {
+        let Some(colour) = colour else {
+            continue;
+        };
+        for item in set.items() {
+            let pose = Pose::new(item.position, item.angle);
+            outline(&mut gizmos, &item.proxy, pose, colour);
         }
+    }
+    match colours.crossings {
+        Some(colour) => {
+            for crossing in crossings.read() {
+                let Ok(poses) = poses.get(crossing.body) else {
+                    continue;
+                };
+                let (from, to) = (poses.start().0, poses.resolved().0);
+                let at = from + (to - from) * crossing.fraction;
+                if at.is_finite() {
+                    gizmos.circle_2d(at, 0.1 * colours.normal_length, colour);
+                }
+            }
+        }
+        None => crossings.clear(),
     }
     for (collider, poses) in &bodies {
         if !poses.recorded() {

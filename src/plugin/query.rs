@@ -34,7 +34,8 @@ pub struct CastFilter {
     /// ([`CollisionLayers::interacts`]). The default is [`CollisionLayers::DEFAULT`]: a member
     /// of the first layer that hits all layers.
     pub layers: CollisionLayers,
-    /// A target never hit (the caster's own collider, say). The default is `None`.
+    /// A target never hit (the caster's own collider, say), or one of its parts. The default
+    /// is `None`.
     pub excluded: Option<Entity>,
 }
 
@@ -44,6 +45,9 @@ pub struct CastFilter {
 pub struct CastHit {
     /// The target ([`StaticCollider`](super::StaticCollider) entity).
     pub entity: Entity,
+    /// The target's collider that was reached: `entity` itself, or the part of it (a child
+    /// collider below it).
+    pub collider: Entity,
     /// Fraction of the cast at which the shape comes within the slop of the target (a ray:
     /// reaches its surface, and its distance is this times `max_distance`), in `[0, 1]`; 0
     /// when the cast starts overlapping it.
@@ -260,15 +264,18 @@ impl StaticQuery<'_> {
             .get(index as usize)
             .copied()
             .unwrap_or_default();
+        let index = index as usize;
         filter.layers.interacts(layers)
-            && filter
-                .excluded
-                .is_none_or(|e| ws.static_entities.get(index as usize) != Some(&e))
+            && filter.excluded.is_none_or(|e| {
+                ws.static_entities.get(index) != Some(&e)
+                    && ws.static_colliders.get(index) != Some(&e)
+            })
     }
 
     fn hit(&self, hit: TargetHit) -> CastHit {
         CastHit {
             entity: self.workspace.static_entities[hit.target as usize],
+            collider: self.workspace.static_colliders[hit.target as usize],
             fraction: hit.fraction,
             point: hit.point,
             normal: hit.normal,
