@@ -1,5 +1,6 @@
-//! Click to fire: bullets at 300 m/s from the left at thin walls, drawn by the debug view.
-//! C toggles CCD on every bullet (off, they pass through the walls).
+//! Click to fire: bullets at 300 m/s from the left at thin walls, a one-way platform (bullets
+//! rising through it pass, falling ones land) and a trigger (its crossings are printed), all
+//! drawn by the debug view. C toggles CCD on every bullet (off, they pass through the walls).
 //!
 //! ```text
 //! cargo run --release --example window --features window
@@ -7,7 +8,10 @@
 
 use bevy::prelude::*;
 use bevy_ccd::debug::CcdDebugPlugin;
-use bevy_ccd::prelude::{CcdEnabled, CcdPlugin, Collider, Restitution, StaticCollider, Velocity};
+use bevy_ccd::prelude::{
+    CcdEnabled, CcdPlugin, CcdSensorCrossing, Collider, OneWayPlatform, OneWayPlatforms,
+    Restitution, Sensor, StaticCollider, Velocity,
+};
 
 /// Muzzle speed (m/s).
 const SPEED: f32 = 300.0;
@@ -20,10 +24,14 @@ struct Bullet(Timer);
 
 fn main() {
     App::new()
-        .add_plugins((DefaultPlugins, CcdPlugin::default(), CcdDebugPlugin))
+        .add_plugins((
+            DefaultPlugins,
+            CcdPlugin::default().with_hooks::<OneWayPlatforms>(),
+            CcdDebugPlugin,
+        ))
         .insert_resource(Time::<Fixed>::from_hz(60.0))
         .add_systems(Startup, setup)
-        .add_systems(Update, (fire, toggle_ccd, expire))
+        .add_systems(Update, (fire, toggle_ccd, expire, report_crossings))
         .add_systems(FixedUpdate, fly)
         .run();
 }
@@ -39,6 +47,20 @@ fn setup(mut commands: Commands) {
                 .with_rotation(Quat::from_rotation_z(0.2 * i as f32)),
         ));
     }
+    // A one-way platform above the muzzle: shots aimed up pass it, and fall back onto it.
+    commands.spawn((
+        Collider::rectangle(3.0, 0.02).expect("positive sizes"),
+        StaticCollider,
+        OneWayPlatform { up: Vec2::Y },
+        Transform::from_xyz(-4.0, 5.0, 0.0),
+    ));
+    // A 1 cm trigger in front of the walls.
+    commands.spawn((
+        Collider::rectangle(0.005, 6.0).expect("positive sizes"),
+        StaticCollider,
+        Sensor,
+        Transform::from_xyz(1.0, 0.0, 0.0),
+    ));
 }
 
 /// A click fires a bullet from the left edge toward the cursor.
@@ -73,10 +95,21 @@ fn fire(
     ));
 }
 
-/// The user's movement: bullets fly straight (CCD corrects the pose and velocity at hits).
-fn fly(time: Res<Time>, mut bullets: Query<(&mut Transform, &Velocity), With<Bullet>>) {
-    for (mut transform, velocity) in &mut bullets {
-        transform.translation += (velocity.linear * time.delta_secs()).extend(0.0);
+/// The user's movement: bullets fly under gravity (CCD corrects the pose and velocity at
+/// hits).
+fn fly(time: Res<Time>, mut bullets: Query<(&mut Transform, &mut Velocity), With<Bullet>>) {
+    let dt = time.delta_secs();
+    for (mut transform, mut velocity) in &mut bullets {
+        velocity.linear.y -= 9.81 * dt;
+        transform.translation += (velocity.linear * dt).extend(0.0);
+    }
+}
+
+/// Prints the trigger's crossings.
+fn report_crossings(mut crossings: MessageReader<CcdSensorCrossing>) {
+    for crossing in crossings.read() {
+        let what = if crossing.entered { "entered" } else { "left" };
+        info!("{:?} {what} the trigger", crossing.body);
     }
 }
 
