@@ -18,6 +18,10 @@ use super::workspace::CcdWorkspace;
 /// computed, so CCD honours the layers at every speed. An entity without the component has the
 /// default: a member of the first layer, hitting every layer.
 ///
+/// A mask of zero is allowed and means what it says: an entity that is a member of no layer,
+/// or whose filter holds none, interacts with nothing (a body passes every target, a target
+/// stops no body), as a disabled pair would; no warning is given.
+///
 /// Immutable, as [`Collider`](super::Collider) is: to change an entity's layers, insert new
 /// ones (a target's take effect at the next step, with a rebuild of the static hierarchy).
 ///
