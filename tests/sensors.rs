@@ -366,3 +366,57 @@ fn a_static_becomes_a_sensor_and_back() {
     assert!(toi(&app, ball).first_hit().is_some() && position(&app, ball).x < 1.0);
     assert_eq!(crossings(&app).len(), 2);
 }
+
+/// A compound body (a dumbbell: two discs and a rod as child colliders, none of its own)
+/// crossing a 1 cm sensor reports one entry, when its first part touches, and one exit, when
+/// its last part leaves, however many of its parts are inside in between: fast (within one
+/// step) and slow (over several), both modes.
+#[test]
+fn a_compound_body_crosses_as_one() {
+    for resolution in MODES {
+        for speed in [5.0, 2000.0] {
+            let mut app = sensing_app(resolution);
+            let sensor = spawn_sensor(&mut app, Vec2::new(0.005, 1.0), Vec2::new(2.0, 0.0));
+            let body = app
+                .world_mut()
+                .spawn((
+                    CcdEnabled::default(),
+                    Velocity {
+                        linear: Vec2::new(speed, 0.0),
+                        angular: 0.0,
+                    },
+                    Transform::default(),
+                ))
+                .id();
+            let child = |collider: Collider, x: f32| {
+                (collider, Transform::from_xyz(x, 0.0, 0.0), ChildOf(body))
+            };
+            app.world_mut()
+                .spawn(child(Collider::rectangle(0.4, 0.005).unwrap(), 0.0));
+            for x in [-0.4, 0.4] {
+                app.world_mut()
+                    .spawn(child(Collider::circle(0.1).unwrap(), x));
+            }
+            // Until the whole body (1 m long) is 1 m past the sensor.
+            let steps = (4.0 / (speed * DT as f32)).ceil() as usize;
+            for _ in 0..steps {
+                step(&mut app);
+            }
+            let log = crossings(&app);
+            let what = format!("{resolution:?} at {speed} m/s: {log:?}");
+            assert_eq!(log.len(), 2, "{what}");
+            let (entered, exited) = (log[0].1, log[1].1);
+            assert!(entered.entered && !exited.entered, "{what}");
+            assert!(entered.body == body && entered.sensor == sensor, "{what}");
+            // The leading disc's front touches the sensor's near face (x = 1.995) when the
+            // body's origin is at 1.995 - 0.5 = 1.495; the trailing disc's back leaves the far
+            // face (2.005) at 2.005 + 0.5 = 2.505: a quarter slop either way, plus rounding.
+            let at = |(step, c): (usize, CcdSensorCrossing)| {
+                speed * DT as f32 * ((step - 1) as f32 + c.fraction)
+            };
+            let tolerance = 0.25 * SLOP + 1e-3;
+            assert!((at(log[0]) - 1.495).abs() < tolerance, "{what}");
+            assert!((at(log[1]) - 2.505).abs() < tolerance, "{what}");
+        }
+    }
+}

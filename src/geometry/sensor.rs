@@ -29,9 +29,9 @@ use glam::Vec2;
 use smallvec::SmallVec;
 
 use super::proxy::ShapeProxy;
-use super::static_set::StaticSet;
+use super::static_set::{StaticItem, StaticSet};
 use super::sweep::Sweep;
-use super::toi::{ToiConfig, ToiInput, ToiState, time_of_impact};
+use super::toi::{ToiConfig, ToiInput, ToiOutput, ToiState, time_of_impact};
 
 /// One stretch of a body's path over a step: the sweep it travelled, and the fractions of the
 /// whole step at its two ends.
@@ -92,17 +92,7 @@ pub(crate) fn sense_path(
         let Some(item) = sensors.items().get(index as usize) else {
             continue;
         };
-        let sensor_sweep = Sweep::stationary(Vec2::ZERO, item.position, item.angle);
-        let touch = |sweep: Sweep| {
-            time_of_impact(&ToiInput {
-                max_fraction: 1.0,
-                config: ToiConfig {
-                    linear_slop,
-                    target_separation: Some(0.0),
-                },
-                ..ToiInput::new(*proxy, sweep, item.proxy, sensor_sweep)
-            })
-        };
+        let touch = |sweep: Sweep| touch(proxy, sweep, item, linear_slop);
         // A piece far from the sensor is outside it throughout.
         let mut inside = false;
         for (k, piece) in path.iter().enumerate() {
@@ -124,8 +114,7 @@ pub(crate) fn sense_path(
             }
             let s = piece.sweep;
             let forward = touch(s);
-            let start_in = matches!(forward.state, ToiState::Overlapped)
-                || (forward.state == ToiState::Hit && forward.fraction == 0.0);
+            let start_in = touching_at_start(&forward);
             // The previous piece ended where this one starts, so the two agree but for a
             // solver's nudge; then the difference is a crossing at the boundary. The step's
             // start is not a crossing: a body already inside gets no entry.
@@ -159,6 +148,42 @@ pub(crate) fn sense_path(
             .total_cmp(&b.fraction)
             .then(a.sensor.cmp(&b.sensor))
     });
+}
+
+/// The time of impact of `proxy` moving along `sweep` with the sensor `item`, the surfaces
+/// touching (target separation 0): the one test of both crossings and inside states.
+fn touch(proxy: &ShapeProxy, sweep: Sweep, item: &StaticItem, linear_slop: f32) -> ToiOutput {
+    let sensor_sweep = Sweep::stationary(Vec2::ZERO, item.position, item.angle);
+    time_of_impact(&ToiInput {
+        max_fraction: 1.0,
+        config: ToiConfig {
+            linear_slop,
+            target_separation: Some(0.0),
+        },
+        ..ToiInput::new(*proxy, sweep, item.proxy, sensor_sweep)
+    })
+}
+
+/// Whether a [`touch`] says the shapes touch at the start of its sweep.
+fn touching_at_start(out: &ToiOutput) -> bool {
+    matches!(out.state, ToiState::Overlapped) || (out.state == ToiState::Hit && out.fraction == 0.0)
+}
+
+/// Whether the body of shape `proxy` is inside sensor `index` at the start of `path`, by the
+/// test [`sense_path`] uses.
+pub(crate) fn starts_inside(
+    proxy: &ShapeProxy,
+    path: &[PathPiece],
+    sensors: &StaticSet,
+    index: u32,
+    linear_slop: f32,
+) -> bool {
+    match (path.first(), sensors.items().get(index as usize)) {
+        (Some(piece), Some(item)) => {
+            touching_at_start(&touch(proxy, piece.sweep, item, linear_slop))
+        }
+        _ => false,
+    }
 }
 
 #[cfg(test)]

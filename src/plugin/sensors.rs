@@ -8,13 +8,14 @@ use bevy_ecs::system::{SystemChangeTick, SystemParam};
 use bevy_ecs::world::DeferredWorld;
 use bevy_reflect::prelude::*;
 use bevy_transform::components::Transform;
+use smallvec::SmallVec;
 
 use super::hierarchy::{Ancestry, TickedAncestry, moved_since, pose_in, push_ancestors};
 use super::outcome::CcdError;
 use super::solve::Shared;
-use super::workspace::{BodyEntry, CcdWorkspace, Lane};
+use super::workspace::{BodyEntry, COMPOUND, CcdWorkspace, Lane};
 use super::{CcdConfig, Collider, CollisionLayers, StaticCollider};
-use crate::geometry::sensor::{CrossingRecord, PathPiece, sense_path};
+use crate::geometry::sensor::{CrossingRecord, PathPiece, sense_path, starts_inside};
 use crate::geometry::{self, Aabb, Pose, StaticItem, StaticSet};
 
 /// Marks a [`StaticCollider`] as a sensor: bodies pass through it, never stopped or deflected,
@@ -277,6 +278,46 @@ pub(crate) fn sense_lane(
         if matches!(body.error, Some(e) if !matches!(e, CcdError::Toi(_))) {
             continue;
         }
+        if body.flags & COMPOUND != 0 {
+            // Each part along the body's path, then the parts' crossings merged into the
+            // body's: it is inside a sensor while any part is.
+            let Some(compound) = shared.compounds.find(body.entity) else {
+                continue;
+            };
+            let (parts, part_layers) = shared.compounds.parts(compound);
+            let start = crossings.len();
+            for (part, layers) in parts.iter().zip(part_layers) {
+                let accepts = |sensor: u32| layers.interacts(sensors.layers[sensor as usize]);
+                let set = &sensors.set;
+                sense_path(
+                    &part.proxy,
+                    pieces,
+                    set,
+                    accepts,
+                    linear_slop,
+                    scratch,
+                    crossings,
+                );
+            }
+            // How many parts start the step inside each sensor crossed.
+            let mut inside: SmallVec<[(u32, u32); 4]> = SmallVec::new();
+            for r in &crossings[start..] {
+                if inside.iter().all(|(s, _)| *s != r.sensor) {
+                    let parts_in = parts
+                        .iter()
+                        .filter(|p| {
+                            starts_inside(&p.proxy, pieces, &sensors.set, r.sensor, linear_slop)
+                        })
+                        .count();
+                    inside.push((r.sensor, parts_in as u32));
+                }
+            }
+            merge_parts(crossings, start, &mut inside);
+            if crossings.len() > start {
+                crossed.push((index, start as u32, (crossings.len() - start) as u32));
+            }
+            continue;
+        }
         let Ok(collider) = colliders.get(body.entity) else {
             continue;
         };
@@ -299,6 +340,45 @@ pub(crate) fn sense_lane(
     }
     path.clear();
     paths.clear();
+}
+
+/// Merges the parts' crossings in `records[start..]` into the body's, in place: in time order
+/// (ties by sensor), the body enters a sensor when the first of its parts does and leaves it
+/// when the last part inside leaves. `inside` holds how many parts start inside each sensor.
+fn merge_parts(
+    records: &mut Vec<CrossingRecord>,
+    start: usize,
+    inside: &mut SmallVec<[(u32, u32); 4]>,
+) {
+    records[start..].sort_by(|a, b| {
+        a.fraction
+            .total_cmp(&b.fraction)
+            .then(a.sensor.cmp(&b.sensor))
+            .then(b.entered.cmp(&a.entered))
+    });
+    let mut kept = start;
+    for read in start..records.len() {
+        let r = records[read];
+        let count = match inside.iter_mut().find(|(s, _)| *s == r.sensor) {
+            Some((_, n)) => n,
+            None => {
+                inside.push((r.sensor, 0));
+                &mut inside.last_mut().expect("just pushed").1
+            }
+        };
+        let keep = if r.entered {
+            *count += 1;
+            *count == 1
+        } else {
+            *count = count.saturating_sub(1);
+            *count == 0
+        };
+        if keep {
+            records[kept] = r;
+            kept += 1;
+        }
+    }
+    records.truncate(kept);
 }
 
 /// [`CcdStepSystems::Impacts`](super::CcdStepSystems::Impacts): the crossing messages, lane by

@@ -26,6 +26,7 @@ use super::{
     CcdConfig, CcdDiagnostics, Collider, CollisionLayers, Resolution, StaticCollider, StepPoses,
 };
 use crate::geometry::constants::MAX_SUBSTEPS;
+use crate::geometry::sensor::PathPiece;
 use crate::geometry::{
     self, BodyOutcome, BodyState, CandidateHit, Compound, ShapeProxy, SolveSettings, StaticSet,
     solve_body_filtered, solve_compound_body_filtered,
@@ -249,6 +250,20 @@ pub(crate) struct Shared<'a> {
     pub(crate) body_layers: LayersOf<'a>,
 }
 
+/// Runs `solve` on the body at `index` of the lane, giving it the lane's path buffer when the
+/// world has sensors, and notes the stretch of path it traced.
+fn traced(
+    shared: &Shared,
+    sensing: &mut SensorLane,
+    index: usize,
+    solve: impl FnOnce(Option<&mut Vec<PathPiece>>) -> BodyOutcome,
+) -> BodyOutcome {
+    let from = sensing.path.len();
+    let outcome = solve(shared.sensors.map(|_| &mut sensing.path));
+    sensing.traced(index, from);
+    outcome
+}
+
 /// Stores what the solver did with a body in its entry.
 fn store(body: &mut BodyEntry, outcome: BodyOutcome) {
     body.position = outcome.position;
@@ -321,20 +336,19 @@ fn solve_compound(
         let collider = shared.compounds.collider(entry, hit.part);
         (shared.accept)(entry.entity, collider, hit)
     };
-    let from = sensing.path.len();
-    let path = shared.sensors.map(|_| &mut sensing.path);
-    let outcome = solve_compound_body_filtered(
-        &state,
-        compound,
-        shared.statics,
-        list,
-        shared.settings,
-        scratch,
-        impacts,
-        &accept,
-        path,
-    );
-    sensing.traced(index, from);
+    let outcome = traced(shared, sensing, index, |path| {
+        solve_compound_body_filtered(
+            &state,
+            compound,
+            shared.statics,
+            list,
+            shared.settings,
+            scratch,
+            impacts,
+            &accept,
+            path,
+        )
+    });
     store(body, outcome);
 }
 
@@ -418,19 +432,18 @@ pub(crate) fn solve_lane(
                 (shared.body_layers)(entry).interacts(target)
                     && (shared.accept)(entry.entity, entry.entity, hit)
             };
-            let from = sensing.path.len();
-            let path = shared.sensors.map(|_| &mut sensing.path);
-            let outcome = solve_body_filtered(
-                &state,
-                shared.statics,
-                list,
-                shared.settings,
-                scratch,
-                impacts,
-                &accept,
-                path,
-            );
-            sensing.traced(index, from);
+            let outcome = traced(shared, sensing, index, |path| {
+                solve_body_filtered(
+                    &state,
+                    shared.statics,
+                    list,
+                    shared.settings,
+                    scratch,
+                    impacts,
+                    &accept,
+                    path,
+                )
+            });
             store(body, outcome);
         }
     }
