@@ -12,10 +12,12 @@ use std::time::Instant;
 
 use bevy_ccd::prelude::*;
 use bevy_ccd::testing::{
-    ArenaConfig, StepFixed, arena_app, bodies_outside, deepest_penetration, moving_app,
+    ArenaConfig, Gravity, StepFixed, arena_app, bodies_outside, deepest_penetration,
+    headless_app_with, integrate_velocity, moving_app,
 };
 use bevy_ecs::prelude::*;
 use bevy_transform::components::Transform;
+use glam::Quat;
 
 const DT: f64 = 1.0 / 60.0;
 
@@ -154,11 +156,169 @@ fn falling_ball(ccd: bool) -> (Vec<Vec2>, Option<Vec2>) {
     (path, hit)
 }
 
+/// A box of the level panel: world centre, half extents, angle, and how it is drawn.
+struct Block {
+    center: Vec2,
+    half: Vec2,
+    angle: f32,
+    style: &'static str,
+}
+
+/// The level panel's scene and what its bodies did: the blocks, each body's path per step,
+/// impact points, sensor crossings (where the body's origin was).
+struct LevelRun {
+    blocks: Vec<Block>,
+    paths: Vec<Vec<Vec2>>,
+    hits: Vec<Vec2>,
+    crossings: Vec<Vec2>,
+}
+
+/// A small level as games build it: a floor and a wall spawned as children of a turned and
+/// moved level root, a one-way platform (the `OneWayPlatforms` hook), a 1 cm trigger
+/// (`Sensor`) and a ghost wall on a layer the balls ignore (`CollisionLayers`). Three balls
+/// under gravity: one thrown up through the platform lands on it; two fly through the ghost
+/// wall and the trigger to the wall, one of them at 200 m/s.
+fn level_scene() -> LevelRun {
+    let mut app = headless_app_with(DT, CcdPlugin::default().with_hooks::<OneWayPlatforms>());
+    app.insert_resource(CcdConfig {
+        resolution: Resolution::SubStep { max_substeps: 4 },
+        ..Default::default()
+    })
+    .insert_resource(Gravity(Vec2::new(0.0, -9.81)))
+    .add_systems(bevy_app::FixedUpdate, integrate_velocity);
+    // The root: turned 0.1 rad about (0, -1); its children are placed in its frame.
+    let (root_at, root_angle) = (Vec2::new(0.0, -1.0), 0.1f32);
+    let world = app.world_mut();
+    let root = world
+        .spawn(
+            Transform::from_xyz(root_at.x, root_at.y, 0.0)
+                .with_rotation(Quat::from_rotation_z(root_angle)),
+        )
+        .id();
+    let mut blocks = Vec::new();
+    let rot =
+        |v: Vec2, a: f32| Vec2::new(v.x * a.cos() - v.y * a.sin(), v.x * a.sin() + v.y * a.cos());
+    for (local, half) in [
+        (Vec2::new(0.0, 0.0), Vec2::new(8.0, 0.1)),
+        (Vec2::new(7.9, 3.0), Vec2::new(0.1, 3.0)),
+    ] {
+        world.spawn((
+            Collider::rectangle(half.x, half.y).expect("positive sizes"),
+            StaticCollider,
+            Transform::from_xyz(local.x, local.y, 0.0),
+            ChildOf(root),
+        ));
+        blocks.push(Block {
+            center: root_at + rot(local, root_angle),
+            half,
+            angle: root_angle,
+            style: r##"fill="#444""##,
+        });
+    }
+    let mut spawn_static =
+        |center: Vec2, half: Vec2, extra: &dyn Fn(&mut EntityWorldMut), style| {
+            let mut e = world.spawn((
+                Collider::rectangle(half.x, half.y).expect("positive sizes"),
+                StaticCollider,
+                Transform::from_xyz(center.x, center.y, 0.0),
+            ));
+            extra(&mut e);
+            blocks.push(Block {
+                center,
+                half,
+                angle: 0.0,
+                style,
+            });
+        };
+    spawn_static(
+        Vec2::new(-4.0, 3.0),
+        Vec2::new(1.5, 0.05),
+        &|e| {
+            e.insert(OneWayPlatform { up: Vec2::Y });
+        },
+        r##"fill="#c90""##,
+    );
+    spawn_static(
+        Vec2::new(2.0, 2.5),
+        Vec2::new(0.005, 2.5),
+        &|e| {
+            e.insert(Sensor);
+        },
+        r##"fill="#3a3""##,
+    );
+    spawn_static(
+        Vec2::new(4.5, 2.5),
+        Vec2::new(0.05, 2.5),
+        &|e| {
+            e.insert(CollisionLayers::new(1 << 1, u32::MAX));
+        },
+        r##"fill="none" stroke="#999" stroke-dasharray="3 2""##,
+    );
+    let balls: Vec<Entity> = [
+        (Vec2::new(-4.0, 0.6), Vec2::new(0.0, 12.0)),
+        (Vec2::new(-6.0, 1.0), Vec2::new(9.0, 7.0)),
+        (Vec2::new(-6.0, 2.0), Vec2::new(200.0, 10.0)),
+    ]
+    .into_iter()
+    .map(|(at, v)| {
+        world
+            .spawn((
+                Collider::circle(0.2).expect("a positive radius"),
+                CcdEnabled::default(),
+                CollisionLayers::new(1, 1),
+                Velocity {
+                    linear: v,
+                    angular: 0.0,
+                },
+                Restitution(0.3),
+                Transform::from_xyz(at.x, at.y, 0.0),
+            ))
+            .id()
+    })
+    .collect();
+    let position = |app: &bevy_app::App, e: Entity| {
+        app.world()
+            .get::<Transform>(e)
+            .expect("spawned")
+            .translation
+            .truncate()
+    };
+    let mut run = LevelRun {
+        blocks,
+        paths: balls.iter().map(|&b| vec![position(&app, b)]).collect(),
+        hits: Vec::new(),
+        crossings: Vec::new(),
+    };
+    for _ in 0..300 {
+        let starts: Vec<Vec2> = balls.iter().map(|&b| position(&app, b)).collect();
+        app.step_fixed(1);
+        for (k, &b) in balls.iter().enumerate() {
+            let at = position(&app, b);
+            run.paths[k].push(at);
+            if let Some(hit) = app.world().get::<CcdOutcome>(b).and_then(|o| o.first_hit()) {
+                run.hits.push(hit.point);
+            }
+            let messages = app
+                .world()
+                .resource::<bevy_ecs::message::Messages<CcdSensorCrossing>>();
+            for c in messages
+                .iter_current_update_messages()
+                .filter(|c| c.body == b)
+            {
+                run.crossings
+                    .push(starts[k] + (at - starts[k]) * c.fraction);
+            }
+        }
+    }
+    run
+}
+
 fn svg(
     traces: &Traces,
     half: f32,
     off: &(Vec<Vec2>, Option<Vec2>),
     on: &(Vec<Vec2>, Option<Vec2>),
+    level: &LevelRun,
 ) -> String {
     let mut s = String::new();
     let size = 480.0;
@@ -171,8 +331,8 @@ fn svg(
     let _ = write!(
         s,
         r##"<svg xmlns="http://www.w3.org/2000/svg" width="{}" height="{size}" viewBox="0 0 {} {size}">"##,
-        3.0 * size + 20.0,
-        3.0 * size + 20.0
+        4.0 * size + 30.0,
+        4.0 * size + 30.0
     );
     // Panels 1 and 2: the falling ball, CCD off and on. World y in [-6, 16], x in [-8, 8].
     for (k, (title, (path, hit))) in [
@@ -263,6 +423,56 @@ fn svg(
             c.x, c.y
         );
     }
+    s.push_str("</g>");
+    // Panel 4: the level, world x in [-9, 9], y in [-3, 8].
+    let x0 = 3.0 * (size + 10.0);
+    panel(
+        x0,
+        "Level: root (tilted), one-way platform, trigger, ghost wall",
+        &mut s,
+    );
+    let scale = size / 19.0;
+    let map = |p: Vec2| Vec2::new(size * 0.5 + p.x * scale, size * 0.72 - p.y * scale);
+    for b in &level.blocks {
+        let c = map(b.center);
+        let _ = write!(
+            s,
+            r##"<rect x="{}" y="{}" width="{}" height="{}" {} transform="rotate({} {} {})"/>"##,
+            c.x - b.half.x * scale,
+            c.y - b.half.y * scale,
+            (2.0 * b.half.x * scale).max(1.0),
+            (2.0 * b.half.y * scale).max(1.0),
+            b.style,
+            -b.angle.to_degrees(),
+            c.x,
+            c.y
+        );
+    }
+    for (i, path) in level.paths.iter().enumerate() {
+        let pts: Vec<String> = path
+            .iter()
+            .map(|p| {
+                let m = map(*p);
+                format!("{:.1},{:.1}", m.x, m.y)
+            })
+            .collect();
+        let _ = write!(
+            s,
+            r##"<polyline points="{}" fill="none" stroke="{}" stroke-width="1.5"/>"##,
+            pts.join(" "),
+            colors[i % colors.len()]
+        );
+    }
+    for (points, fill) in [(&level.hits, "red"), (&level.crossings, "#3a3")] {
+        for p in points {
+            let c = map(*p);
+            let _ = write!(
+                s,
+                r##"<circle cx="{}" cy="{}" r="3" fill="{fill}"/>"##,
+                c.x, c.y
+            );
+        }
+    }
     s.push_str("</g></svg>\n");
     s
 }
@@ -297,11 +507,19 @@ fn main() {
     }
     let fall_off = falling_ball(false);
     let fall_on = falling_ball(true);
+    let level = level_scene();
+    println!(
+        "level: {} impacts, {} sensor crossings; the ball thrown up through the one-way platform ends at y = {:.3} (resting on it: its top 3.05 plus the radius 0.2 and the slop)",
+        level.hits.len(),
+        level.crossings.len(),
+        level.paths[0].last().map_or(f32::NAN, |p| p.y)
+    );
     let picture = svg(
         &traces,
         ArenaConfig::default().half_extent,
         &fall_off,
         &fall_on,
+        &level,
     );
     if let Some(dir) = std::path::Path::new(&svg_path).parent() {
         let _ = std::fs::create_dir_all(dir);

@@ -37,6 +37,21 @@ pub(crate) struct TargetHit {
 }
 
 /// Why a cast could not be made.
+///
+/// ```
+/// use bevy_ccd::prelude::*;
+///
+/// // A ray that cannot be cast reports why, and the game goes on.
+/// fn report(result: Result<Option<CastHit>, CastError>) -> &'static str {
+///     match result {
+///         Ok(Some(_)) => "hit",
+///         Ok(None) => "clear",
+///         Err(CastError::ZeroLength) => "no direction",
+///         Err(_) => "bad input",
+///     }
+/// }
+/// assert_eq!(report(Err(CastError::ZeroLength)), "no direction");
+/// ```
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum CastError {
     /// A pose, the shape or the slop holds NaN or infinity.

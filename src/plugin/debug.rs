@@ -41,6 +41,22 @@ impl Plugin for CcdDebugPlugin {
 }
 
 /// The colours of the CCD debug view; `None` leaves that part out.
+///
+/// ```
+/// use bevy_ccd::debug::CcdGizmos;
+///
+/// // Only the impacts, in white.
+/// let impacts_only = CcdGizmos {
+///     statics: None,
+///     bodies: None,
+///     sweeps: None,
+///     sensors: None,
+///     crossings: None,
+///     impacts: Some(bevy_color::Color::WHITE),
+///     ..Default::default()
+/// };
+/// assert_eq!(impacts_only.normal_length, 0.5);
+/// ```
 #[derive(GizmoConfigGroup, Reflect, Clone, Debug, PartialEq)]
 #[reflect(Default)]
 pub struct CcdGizmos {

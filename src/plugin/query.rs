@@ -40,6 +40,16 @@ pub struct CastFilter {
 }
 
 /// A target a cast reaches.
+///
+/// ```
+/// use bevy_ccd::prelude::*;
+///
+/// // How far along a 30 m ray its hit is.
+/// fn distance(hit: &CastHit) -> f32 {
+///     hit.fraction * 30.0
+/// }
+/// # let _ = distance;
+/// ```
 #[derive(Reflect, Clone, Copy, Debug, PartialEq)]
 #[reflect(Debug, Clone, PartialEq)]
 pub struct CastHit {
@@ -284,6 +294,16 @@ impl StaticQuery<'_> {
 }
 
 /// Where [`StaticQuery::move_and_slide`] left a collider.
+///
+/// ```
+/// use bevy_ccd::prelude::*;
+///
+/// // Grounded when the slide met a surface facing up.
+/// fn grounded(slide: &Slide) -> bool {
+///     slide.hits.iter().any(|hit| hit.normal.y > 0.7)
+/// }
+/// # let _ = grounded;
+/// ```
 #[derive(Clone, Debug, PartialEq)]
 pub struct Slide {
     /// The collider's final origin (m).
