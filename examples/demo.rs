@@ -401,19 +401,7 @@ fn svg(
     );
     let colors = ["#36c", "#c63", "#393", "#939", "#996", "#399"];
     for (i, path) in traces.paths.iter().enumerate() {
-        let pts: Vec<String> = path
-            .iter()
-            .map(|p| {
-                let m = map(*p);
-                format!("{:.1},{:.1}", m.x, m.y)
-            })
-            .collect();
-        let _ = write!(
-            s,
-            r##"<polyline points="{}" fill="none" stroke="{}" stroke-width="1"/>"##,
-            pts.join(" "),
-            colors[i % colors.len()]
-        );
+        polyline(&mut s, path, map, colors[i % colors.len()], 1.0);
     }
     for h in &traces.hits {
         let c = map(*h);
@@ -449,19 +437,7 @@ fn svg(
         );
     }
     for (i, path) in level.paths.iter().enumerate() {
-        let pts: Vec<String> = path
-            .iter()
-            .map(|p| {
-                let m = map(*p);
-                format!("{:.1},{:.1}", m.x, m.y)
-            })
-            .collect();
-        let _ = write!(
-            s,
-            r##"<polyline points="{}" fill="none" stroke="{}" stroke-width="1.5"/>"##,
-            pts.join(" "),
-            colors[i % colors.len()]
-        );
+        polyline(&mut s, path, map, colors[i % colors.len()], 1.5);
     }
     for (points, fill) in [(&level.hits, "red"), (&level.crossings, "#3a3")] {
         for p in points {
@@ -475,6 +451,22 @@ fn svg(
     }
     s.push_str("</g></svg>\n");
     s
+}
+
+/// A body's path as an SVG polyline, through `map` from world to picture.
+fn polyline(s: &mut String, path: &[Vec2], map: impl Fn(Vec2) -> Vec2, colour: &str, width: f32) {
+    let points: Vec<String> = path
+        .iter()
+        .map(|p| {
+            let m = map(*p);
+            format!("{:.1},{:.1}", m.x, m.y)
+        })
+        .collect();
+    let _ = write!(
+        s,
+        r##"<polyline points="{}" fill="none" stroke="{colour}" stroke-width="{width}"/>"##,
+        points.join(" ")
+    );
 }
 
 fn main() {

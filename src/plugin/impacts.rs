@@ -5,6 +5,7 @@ use bevy_ecs::prelude::*;
 
 use super::compound::Compounds;
 use super::workspace::CcdWorkspace;
+use super::write::WriteLookups;
 use super::{CcdDiagnostics, CcdImpact};
 
 /// [`CcdStepSystems::Impacts`](super::CcdStepSystems::Impacts): the impact messages, lane by
@@ -17,8 +18,11 @@ pub(crate) fn send_impacts(
 ) {
     let ws: &CcdWorkspace = &workspace;
     let lane_len = ws.lane_len.max(1);
-    let target = |index: u32| ws.static_entities[index as usize];
-    let collider = |index: u32| ws.static_colliders[index as usize];
+    let lookups = WriteLookups {
+        entities: &ws.static_entities,
+        colliders: &ws.static_colliders,
+        child_frames: &ws.child_frames,
+    };
     let mut sent = 0;
     // Lane by lane, in gathering order; each lane's `hit` list names its bodies with impacts,
     // so the others are not visited again.
@@ -28,17 +32,8 @@ pub(crate) fn send_impacts(
             let start = body.impacts as usize;
             let list = &lane.impacts[start..start + body.impact_count as usize];
             sent += list.len();
-            for (k, i) in list.iter().enumerate() {
-                impacts.write(CcdImpact {
-                    body: body.entity,
-                    body_collider: compounds.collider(body, i.part),
-                    target: target(i.target),
-                    target_collider: collider(i.target),
-                    fraction: i.fraction,
-                    point: i.point,
-                    normal: i.normal,
-                    substep: k as u32,
-                });
+            for (k, record) in list.iter().enumerate() {
+                impacts.write(lookups.impact(body, record, k as u32, &compounds));
             }
         }
     }

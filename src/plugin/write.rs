@@ -10,6 +10,7 @@ use super::hierarchy::Planar;
 use super::outcome::{CcdError, CcdImpact, CcdOutcome, Hits};
 use super::workspace::{BodyEntry, HAS_VELOCITY, Lane, NUDGED, OVERLAPPING};
 use super::{StaticCollider, StepPoses, Velocity};
+use crate::geometry::ImpactRecord;
 
 /// Puts a body in the error state, with a warning the first time this error shows (the
 /// settings' errors have their own, once for every body). An error repeated from the last step
@@ -53,8 +54,6 @@ pub(crate) fn write_lane(
     targets: &WriteLookups,
     compounds: &Compounds,
 ) {
-    let target = |index: u32| targets.entities[index as usize];
-    let collider = |index: u32| targets.colliders[index as usize];
     for &index in &lane.visit {
         let body = &chunk[index as usize];
         // The entity was gathered this step, so it is there: the same schedule pass solves
@@ -111,22 +110,10 @@ pub(crate) fn write_lane(
             v.linear = body.velocity;
             v.angular = body.angular;
         }
-        let hits = (body.impact_count > 0).then(|| {
-            let i = lane.impacts[body.impacts as usize];
-            Hits {
-                first: CcdImpact {
-                    body: body.entity,
-                    body_collider: compounds.collider(body, i.part),
-                    target: target(i.target),
-                    target_collider: collider(i.target),
-                    fraction: i.fraction,
-                    point: i.point,
-                    normal: i.normal,
-                    substep: 0,
-                },
-                count: body.impact_count as u32,
-                substeps: body.substeps as u32,
-            }
+        let hits = (body.impact_count > 0).then(|| Hits {
+            first: targets.impact(body, &lane.impacts[body.impacts as usize], 0, compounds),
+            count: body.impact_count as u32,
+            substeps: body.substeps as u32,
         });
         let outcome = match (body.error, hits) {
             (Some(error), _) => CcdOutcome::Error(error),
@@ -151,6 +138,27 @@ pub(crate) struct WriteLookups<'a> {
 }
 
 impl WriteLookups<'_> {
+    /// The [`CcdImpact`] of `body`'s impact `record`, the `substep`-th of its step: the
+    /// entities of its colliders and of the target.
+    pub(crate) fn impact(
+        &self,
+        body: &BodyEntry,
+        record: &ImpactRecord,
+        substep: u32,
+        compounds: &Compounds,
+    ) -> CcdImpact {
+        CcdImpact {
+            body: body.entity,
+            body_collider: compounds.collider(body, record.part),
+            target: self.entities[record.target as usize],
+            target_collider: self.colliders[record.target as usize],
+            fraction: record.fraction,
+            point: record.point,
+            normal: record.normal,
+            substep,
+        }
+    }
+
     /// A child body's parent pose, or why its chain has none; `None` for a root body. Looked
     /// up only when the step has child bodies, so that a world without them pays one test
     /// per written body.
