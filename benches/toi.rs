@@ -551,6 +551,8 @@ struct Family<'a> {
     ns: Vec<BTreeMap<Engine, f64>>,
     tallies: BTreeMap<Engine, Tally>,
     ours_stats: OursStats,
+    /// Per case: our advance, root-finder and certification counts.
+    ours_counts: Vec<[u32; 3]>,
 }
 
 impl<'a> Family<'a> {
@@ -565,6 +567,7 @@ impl<'a> Family<'a> {
             cases,
             tallies: Engine::ALL.iter().map(|&e| (e, Tally::default())).collect(),
             ours_stats: OursStats::default(),
+            ours_counts: Vec::new(),
         };
         for i in 0..family.cases.len() {
             family.score_case(i);
@@ -586,6 +589,8 @@ impl<'a> Family<'a> {
         self.ours_stats.max_iterations = self.ours_stats.max_iterations.max(out.iterations);
         self.ours_stats.root_iterations += u64::from(out.root_iterations);
         self.ours_stats.certify_evaluations += u64::from(out.certify_evaluations);
+        self.ours_counts
+            .push([out.iterations, out.root_iterations, out.certify_evaluations]);
         let v = self
             .tally(Engine::Ours)
             .add(case, Model::Angle, &interpret_ours(&out));
@@ -989,6 +994,36 @@ fn report(families: &[Family<'_>], mode: &RunMode) -> String {
     out
 }
 
+/// `TOI_BENCH_CASES=<file>`: one line per case (family, id, each implementation's ns and
+/// verdict, our advance / root / certification counts), for finding where the time goes.
+fn write_cases(families: &[Family<'_>], path: &PathBuf) {
+    let mut out = String::from("family\tid\tadvances\troots\tcertify");
+    for e in Engine::ALL {
+        let _ = write!(out, "\t{0} ns\t{0}", e.name());
+    }
+    out.push('\n');
+    for f in families {
+        for (i, case) in f.cases.iter().enumerate() {
+            let [a, r, c] = f.ours_counts[i];
+            let _ = write!(out, "{}\t{}\t{a}\t{r}\t{c}", f.name, case.id);
+            for e in Engine::ALL {
+                let ns = f.ns.get(i).and_then(|m| m.get(&e)).copied();
+                let v = f.verdicts[i].get(&e).copied().flatten();
+                let _ = write!(
+                    out,
+                    "\t{}\t{}",
+                    ns.map_or("-".into(), |n| format!("{n:.0}")),
+                    v.map_or("-".into(), |v| format!("{v:?}"))
+                );
+            }
+            out.push('\n');
+        }
+    }
+    if let Err(e) = std::fs::write(path, out) {
+        eprintln!("warning: could not write {}: {e}", path.display());
+    }
+}
+
 /// The families to run: all, or those named in `TOI_BENCH_FAMILIES` (comma-separated), e.g.
 /// to profile one family at a time.
 fn selected_families() -> Vec<&'static str> {
@@ -1055,8 +1090,14 @@ fn main() {
 
     if let Some(n) = mode.profile {
         for family in &families {
+            // `TOI_BENCH_ENGINES=ours`: profile only the named implementations.
+            let only = std::env::var("TOI_BENCH_ENGINES").ok();
+            let profiled = |e: Engine| {
+                only.as_deref()
+                    .is_none_or(|l| l.split(',').any(|n| n == e.name()))
+            };
             for _ in 0..n {
-                for engine in Engine::ALL {
+                for engine in Engine::ALL.into_iter().filter(|&e| profiled(e)) {
                     family.pass(engine);
                 }
             }
@@ -1074,6 +1115,9 @@ fn main() {
         bench_family(&mut criterion, family, &mode, since);
     }
 
+    if let Some(path) = std::env::var_os("TOI_BENCH_CASES") {
+        write_cases(&families, &PathBuf::from(path));
+    }
     let table = report(&families, &mode);
     println!("\n{table}");
     let path = target_dir().join("toi-bench-table.md");

@@ -67,12 +67,12 @@ pub struct DistanceOutput {
     pub simplex_count: u32,
 }
 
+/// A vertex of the simplex: the support points' indices and their difference `w = b - a`
+/// (in A's frame). The points themselves and the barycentric weights are needed only for the
+/// final simplex, so the loop carries neither.
 #[derive(Clone, Copy, Default)]
 struct SimplexVertex {
-    w_a: Vec2,
-    w_b: Vec2,
     w: Vec2,
-    a: f32,
     index_a: u8,
     index_b: u8,
 }
@@ -96,6 +96,16 @@ pub(crate) fn relative_pose(a: Pose, b: Pose) -> Pose {
     }
 }
 
+/// The simplex vertex of support indices `ia` on A and `ib` on B (B placed by `xf`).
+#[inline]
+fn vertex(a: &ShapeProxy, b: &ShapeProxy, xf: Pose, ia: usize, ib: usize) -> SimplexVertex {
+    SimplexVertex {
+        w: xf.transform_point(b.point(ib)) - a.point(ia),
+        index_a: ia as u8,
+        index_b: ib as u8,
+    }
+}
+
 impl Simplex {
     fn from_cache(cache: &SimplexCache, a: &ShapeProxy, b: &ShapeProxy, xf: Pose) -> Self {
         let mut s = Simplex::default();
@@ -108,28 +118,14 @@ impl Simplex {
                 s.count = 0;
                 break;
             }
-            let v = &mut s.v[i];
-            v.index_a = ia as u8;
-            v.index_b = ib as u8;
-            v.w_a = a.point(ia);
-            v.w_b = xf.transform_point(b.point(ib));
-            v.w = v.w_b - v.w_a;
-            v.a = -1.0;
+            s.v[i] = vertex(a, b, xf, ia, ib);
             s.count = i + 1;
         }
         if s.count == 0 {
             // Cold start from the supports that face each other along the line between the
             // two frame origins (not vertex 0 of each): fewer iterations to converge.
             let d = xf.p;
-            let ia = a.support(d);
-            let ib = b.support(xf.q.inv_rotate(-d));
-            let v = &mut s.v[0];
-            v.index_a = ia as u8;
-            v.index_b = ib as u8;
-            v.w_a = a.point(ia);
-            v.w_b = xf.transform_point(b.point(ib));
-            v.w = v.w_b - v.w_a;
-            v.a = 1.0;
+            s.v[0] = vertex(a, b, xf, a.support(d), b.support(xf.q.inv_rotate(-d)));
             s.count = 1;
         }
         s
@@ -161,49 +157,63 @@ impl Simplex {
         }
     }
 
-    fn witness_points(&self) -> (Vec2, Vec2) {
+    /// The barycentric weights of the closest point of the (reduced) simplex to the origin.
+    fn weights(&self) -> [f32; 3] {
         match self.count {
-            1 => (self.v[0].w_a, self.v[0].w_b),
-            2 => (
-                self.v[0].a * self.v[0].w_a + self.v[1].a * self.v[1].w_a,
-                self.v[0].a * self.v[0].w_b + self.v[1].a * self.v[1].w_b,
-            ),
+            1 => [1.0, 0.0, 0.0],
+            2 => {
+                let (w1, w2) = (self.v[0].w, self.v[1].w);
+                let e12 = w2 - w1;
+                let (d12_1, d12_2) = (w2.dot(e12), -w1.dot(e12));
+                let inv = 1.0 / (d12_1 + d12_2);
+                [d12_1 * inv, d12_2 * inv, 0.0]
+            }
             _ => {
-                let p = self.v[0].a * self.v[0].w_a
-                    + self.v[1].a * self.v[1].w_a
-                    + self.v[2].a * self.v[2].w_a;
-                (p, p)
+                let (w1, w2, w3) = (self.v[0].w, self.v[1].w, self.v[2].w);
+                let n123 = cross(w2 - w1, w3 - w1);
+                let d = [
+                    n123 * cross(w2, w3),
+                    n123 * cross(w3, w1),
+                    n123 * cross(w1, w2),
+                ];
+                let inv = 1.0 / (d[0] + d[1] + d[2]);
+                [d[0] * inv, d[1] * inv, d[2] * inv]
             }
         }
     }
 
-    fn solve2(&mut self) {
+    /// The closest points on A and on B (in A's frame) of the reduced simplex.
+    fn witness_points(&self, a: &ShapeProxy, b: &ShapeProxy, xf: Pose) -> (Vec2, Vec2) {
+        let weights = self.weights();
+        let mut pa = Vec2::ZERO;
+        let mut pb = Vec2::ZERO;
+        for (v, &weight) in self.v[..self.count].iter().zip(&weights) {
+            pa += weight * a.point(v.index_a as usize);
+            pb += weight * xf.transform_point(b.point(v.index_b as usize));
+        }
+        if self.count == 3 { (pa, pa) } else { (pa, pb) }
+    }
+
+    /// Keeps the smallest face of the edge `w1 w2` whose Voronoi region holds the origin.
+    fn reduce2(&mut self) {
         let w1 = self.v[0].w;
         let w2 = self.v[1].w;
         let e12 = w2 - w1;
         // w1 region
-        let d12_2 = -w1.dot(e12);
-        if d12_2 <= 0.0 {
-            self.v[0].a = 1.0;
+        if -w1.dot(e12) <= 0.0 {
             self.count = 1;
             return;
         }
         // w2 region
-        let d12_1 = w2.dot(e12);
-        if d12_1 <= 0.0 {
-            self.v[1].a = 1.0;
+        if w2.dot(e12) <= 0.0 {
             self.count = 1;
             self.v[0] = self.v[1];
-            return;
         }
-        // Inside the edge.
-        let inv = 1.0 / (d12_1 + d12_2);
-        self.v[0].a = d12_1 * inv;
-        self.v[1].a = d12_2 * inv;
-        self.count = 2;
+        // Otherwise inside the edge: keep both.
     }
 
-    fn solve3(&mut self) {
+    /// The same for the triangle `w1 w2 w3`: vertex, edge, then interior regions.
+    fn reduce3(&mut self) {
         let w1 = self.v[0].w;
         let w2 = self.v[1].w;
         let w3 = self.v[2].w;
@@ -225,58 +235,29 @@ impl Simplex {
         let d123_2 = n123 * cross(w3, w1);
         let d123_3 = n123 * cross(w1, w2);
 
-        // w1 region
+        let keep = |s: &mut Self, first: usize, second: Option<usize>| {
+            let (v0, v1) = (s.v[first], second.map(|i| s.v[i]));
+            s.v[0] = v0;
+            s.count = 1;
+            if let Some(v1) = v1 {
+                s.v[1] = v1;
+                s.count = 2;
+            }
+        };
         if d12_2 <= 0.0 && d13_2 <= 0.0 {
-            self.v[0].a = 1.0;
-            self.count = 1;
-            return;
+            keep(self, 0, None); // w1
+        } else if d12_1 > 0.0 && d12_2 > 0.0 && d123_3 <= 0.0 {
+            keep(self, 0, Some(1)); // e12
+        } else if d13_1 > 0.0 && d13_2 > 0.0 && d123_2 <= 0.0 {
+            keep(self, 0, Some(2)); // e13
+        } else if d12_1 <= 0.0 && d23_2 <= 0.0 {
+            keep(self, 1, None); // w2
+        } else if d13_1 <= 0.0 && d23_1 <= 0.0 {
+            keep(self, 2, None); // w3
+        } else if d23_1 > 0.0 && d23_2 > 0.0 && d123_1 <= 0.0 {
+            keep(self, 2, Some(1)); // e23, as (w3, w2)
         }
-        // e12
-        if d12_1 > 0.0 && d12_2 > 0.0 && d123_3 <= 0.0 {
-            let inv = 1.0 / (d12_1 + d12_2);
-            self.v[0].a = d12_1 * inv;
-            self.v[1].a = d12_2 * inv;
-            self.count = 2;
-            return;
-        }
-        // e13
-        if d13_1 > 0.0 && d13_2 > 0.0 && d123_2 <= 0.0 {
-            let inv = 1.0 / (d13_1 + d13_2);
-            self.v[0].a = d13_1 * inv;
-            self.v[2].a = d13_2 * inv;
-            self.count = 2;
-            self.v[1] = self.v[2];
-            return;
-        }
-        // w2 region
-        if d12_1 <= 0.0 && d23_2 <= 0.0 {
-            self.v[1].a = 1.0;
-            self.count = 1;
-            self.v[0] = self.v[1];
-            return;
-        }
-        // w3 region
-        if d13_1 <= 0.0 && d23_1 <= 0.0 {
-            self.v[2].a = 1.0;
-            self.count = 1;
-            self.v[0] = self.v[2];
-            return;
-        }
-        // e23
-        if d23_1 > 0.0 && d23_2 > 0.0 && d123_1 <= 0.0 {
-            let inv = 1.0 / (d23_1 + d23_2);
-            self.v[1].a = d23_1 * inv;
-            self.v[2].a = d23_2 * inv;
-            self.count = 2;
-            self.v[0] = self.v[2];
-            return;
-        }
-        // Inside the triangle: the origin is in the Minkowski difference.
-        let inv = 1.0 / (d123_1 + d123_2 + d123_3);
-        self.v[0].a = d123_1 * inv;
-        self.v[1].a = d123_2 * inv;
-        self.v[2].a = d123_3 * inv;
-        self.count = 3;
+        // Otherwise inside the triangle: the origin is in the Minkowski difference.
     }
 }
 
@@ -291,20 +272,15 @@ pub fn shape_distance(input: &DistanceInput<'_>, cache: &mut SimplexCache) -> Di
     let xf = relative_pose(input.pose_a, input.pose_b);
     let mut simplex = Simplex::from_cache(cache, a, b, xf);
 
-    let mut save_a = [0u8; 3];
-    let mut save_b = [0u8; 3];
     let mut iter = 0;
     // The last search direction, used for the normal when the closest points coincide.
     let mut last_dir = Vec2::ZERO;
     while iter < GJK_MAX_ITERATIONS {
-        let save_count = simplex.count;
-        for i in 0..save_count {
-            save_a[i] = simplex.v[i].index_a;
-            save_b[i] = simplex.v[i].index_b;
-        }
+        // The simplex before reduction, for the termination test below.
+        let saved = simplex;
         match simplex.count {
-            2 => simplex.solve2(),
-            3 => simplex.solve3(),
+            2 => simplex.reduce2(),
+            3 => simplex.reduce3(),
             _ => {}
         }
         if simplex.count == 3 {
@@ -319,22 +295,19 @@ pub fn shape_distance(input: &DistanceInput<'_>, cache: &mut SimplexCache) -> Di
         // support(B, d) - support(A, -d)
         let ia = a.support(-d);
         let ib = b.support(xf.q.inv_rotate(d));
-        let vertex = &mut simplex.v[simplex.count];
-        vertex.index_a = ia as u8;
-        vertex.w_a = a.point(ia);
-        vertex.index_b = ib as u8;
-        vertex.w_b = xf.transform_point(b.point(ib));
-        vertex.w = vertex.w_b - vertex.w_a;
         iter += 1;
         // A repeated support point means no progress: the main termination criterion.
-        let duplicate = (0..save_count).any(|i| save_a[i] == ia as u8 && save_b[i] == ib as u8);
+        let duplicate = saved.v[..saved.count]
+            .iter()
+            .any(|v| v.index_a == ia as u8 && v.index_b == ib as u8);
         if duplicate {
             break;
         }
+        simplex.v[simplex.count] = vertex(a, b, xf, ia, ib);
         simplex.count += 1;
     }
 
-    let (local_a, local_b) = simplex.witness_points();
+    let (local_a, local_b) = simplex.witness_points(a, b, xf);
     *cache = simplex.cache();
     let delta = local_b - local_a;
     let mut distance = delta.length();

@@ -34,6 +34,31 @@ impl Rot {
         atan2(self.s, self.c)
     }
 
+    /// The rotation by a small angle, `|angle| <= π/4`, in plain `f32` arithmetic (no libm
+    /// call, the same bits everywhere).
+    ///
+    /// Cephes' `sinf` and `cosf` minimax polynomials on `[-π/4, π/4]` (S. L. Moshier, 1989),
+    /// within about one unit in the last place there; outside that range the error grows fast,
+    /// so callers check the range.
+    #[inline]
+    pub(crate) fn from_small_angle(angle: f32) -> Self {
+        let x = angle;
+        let z = x * x;
+        let s = ((-1.951_529_6e-4 * z + 8.332_161e-3) * z - 1.666_665_5e-1) * z * x + x;
+        let c =
+            ((2.443_315_7e-5 * z - 1.388_731_6e-3) * z + 4.166_664_6e-2) * z * z - 0.5 * z + 1.0;
+        Self { c, s }
+    }
+
+    /// This rotation followed by `other`: the rotation by the sum of the angles.
+    #[inline]
+    pub(crate) fn then(self, other: Self) -> Self {
+        Self {
+            c: self.c * other.c - self.s * other.s,
+            s: self.s * other.c + self.c * other.s,
+        }
+    }
+
     /// Rotates `v` by this rotation.
     #[inline]
     pub fn rotate(self, v: Vec2) -> Vec2 {
@@ -221,6 +246,20 @@ mod tests {
             let (y, x) = (r * angle.sin(), r * angle.cos());
             assert_eq!(atan2(y, x).to_bits(), branchy(y, x).to_bits(), "({y}, {x})");
         }
+    }
+
+    /// The small-angle rotation is within 2e-7 of the `f64` sine and cosine over its range.
+    #[test]
+    fn small_angle_rotation_matches_f64() {
+        let quarter = core::f32::consts::FRAC_PI_4;
+        for i in 0..=200_000 {
+            let x = -quarter + 2.0 * quarter * (i as f32 / 200_000.0);
+            let q = Rot::from_small_angle(x);
+            let (s, c) = (x as f64).sin_cos();
+            assert!((q.s as f64 - s).abs() <= 2e-7, "sin {x}: {} vs {s}", q.s);
+            assert!((q.c as f64 - c).abs() <= 2e-7, "cos {x}: {} vs {c}", q.c);
+        }
+        assert_eq!(Rot::from_small_angle(0.0), Rot::IDENTITY);
     }
 
     /// Directions all round the circle and at every scale: within 4e-7 rad of the `f64`

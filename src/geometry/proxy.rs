@@ -61,11 +61,17 @@ impl ShapeProxy {
             points: p,
             count: points.len() as u8,
             radius,
-            extent: points
-                .iter()
-                .map(|q| q.length_squared())
-                .fold(0.0, f32::max)
-                .sqrt(),
+            // NaN when a point is not finite (`f32::max` would drop it), so that a bound
+            // test on the extent fails for such a proxy.
+            extent: if points.iter().all(|q| q.is_finite()) {
+                points
+                    .iter()
+                    .map(|q| q.length_squared())
+                    .fold(0.0, f32::max)
+                    .sqrt()
+            } else {
+                f32::NAN
+            },
         }
     }
 
@@ -80,7 +86,8 @@ impl ShapeProxy {
         Self::from_parts(&points[..self.count()], self.radius * scale)
     }
 
-    /// The largest distance of a core point from the local origin (m), radius not included.
+    /// The largest distance of a core point from the local origin (m), radius not included;
+    /// NaN if a point is not finite.
     #[inline]
     pub fn extent(&self) -> f32 {
         self.extent
@@ -104,18 +111,14 @@ impl ShapeProxy {
         self.points[index]
     }
 
-    /// True when the radius and every coordinate of the core are at most `bound` in magnitude
-    /// (false for NaN).
-    ///
-    /// The slots past `count` hold zeros (every constructor fills them so), so all slots are
-    /// tested: no branch on the count, and a fixed-length loop the compiler vectorises.
+    /// Whether the radius and every core coordinate are at most `bound` in magnitude, read
+    /// off the extent (a point within `bound` of the origin has both coordinates within it):
+    /// one comparison per number. A proxy whose corners lie beyond `bound` from the origin but
+    /// whose coordinates do not gets a no, so a caller follows a no with the exact test; a
+    /// point that is not finite makes the extent NaN, so that gets a no too.
     #[inline]
     pub(crate) fn within(&self, bound: f32) -> bool {
-        let mut all = self.radius <= bound;
-        for p in &self.points {
-            all &= (p.x.abs() <= bound) & (p.y.abs() <= bound);
-        }
-        all
+        (self.extent <= bound) & (self.radius <= bound)
     }
 
     /// The index of the core point farthest along `direction` (the first one on ties, so the
@@ -193,6 +196,11 @@ impl ShapeProxy {
 
     /// The largest distance from `center` to a core point (m), radius not included.
     pub fn max_distance_from(&self, center: Vec2) -> f32 {
+        // About the origin, as for most bodies, it is the extent (the same bits): no pass, no
+        // square root.
+        if center == Vec2::ZERO && self.extent.is_finite() {
+            return self.extent;
+        }
         self.points()
             .iter()
             .map(|p| p.distance_squared(center))

@@ -243,7 +243,7 @@ impl BodyFrame {
     }
 }
 
-/// A sweep prepared for evaluation: origin-shifted, with its motion and reach precomputed.
+/// A sweep prepared for evaluation: origin-shifted, with its motion precomputed.
 struct Motion {
     c0: Vec2,
     v: Vec2,
@@ -283,10 +283,15 @@ impl Motion {
 
     #[inline]
     fn pose(&self, t: f32) -> Pose {
-        let q = if self.w == 0.0 || t == 0.0 {
+        // The start rotation turned by `t w`: for a turn of at most π/4 since the start, by a
+        // polynomial (no libm call on the search's dependency chain), else from the angle.
+        let turn = t * self.w;
+        let q = if turn == 0.0 {
             self.q0
+        } else if turn.abs() <= core::f32::consts::FRAC_PI_4 {
+            self.q0.then(Rot::from_small_angle(turn))
         } else {
-            Rot::from_angle(self.a0 + t * self.w)
+            Rot::from_angle(self.a0 + turn)
         };
         Pose {
             p: self.center(t) - q.rotate(self.local_center),
@@ -474,12 +479,13 @@ impl<'a> SeparationFunction<'a> {
         let v_rel = mb.v - ma.v;
         let wa = ma.w.abs();
         let wb = mb.w.abs();
+        let (reach_a, reach_b) = (ma.reach, mb.reach);
         match self.kind {
             SeparationKind::Points => MotionBounds {
                 // f = n·(b_j(t) - a_i(t)), n fixed: f' = n·(vB - vA) + rotation terms,
                 // f'' = n·(b_j'' - a_i''), |b_j''| = wB² |r_j|.
-                lipschitz: self.axis.dot(v_rel).abs() + wa * ma.reach + wb * mb.reach,
-                curvature: wa * wa * ma.reach + wb * wb * mb.reach,
+                lipschitz: self.axis.dot(v_rel).abs() + wa * reach_a + wb * reach_b,
+                curvature: wa * wa * reach_a + wb * wb * reach_b,
             },
             SeparationKind::FaceA | SeparationKind::FaceB => {
                 let d = (mb.center(t1) - ma.center(t1))
@@ -487,9 +493,9 @@ impl<'a> SeparationFunction<'a> {
                     .max((mb.center(t2) - ma.center(t2)).length());
                 // The face body turns the axis; the other body's points sweep around it.
                 let (w_face, w_other, reach_other, n1) = if self.kind == SeparationKind::FaceA {
-                    (wa, wb, mb.reach, xf_a1.q.rotate(self.axis))
+                    (wa, wb, reach_b, xf_a1.q.rotate(self.axis))
                 } else {
-                    (wb, wa, ma.reach, xf_b1.q.rotate(self.axis))
+                    (wb, wa, reach_a, xf_b1.q.rotate(self.axis))
                 };
                 // f = n(t)·u(t), u = b_j - c_face, |u| <= D + R_other,
                 // |u'| <= |v_rel| + w_other R_other, |u''| <= w_other² R_other, |n'| = w_face,
@@ -660,7 +666,9 @@ fn certify(
 }
 
 /// True when every coordinate, angle and radius of a body is finite and within
-/// [`MAX_WORLD_COORDINATE`]: one comparison per number, which NaN and infinities fail.
+/// [`MAX_WORLD_COORDINATE`]: one comparison per number, which NaN and infinities fail. The
+/// proxy is tested by its extent, which may say no for a proxy with every coordinate in range
+/// (a corner up to √2 times the bound away); [`diagnose`] then decides.
 #[inline]
 fn all_in_bounds(sweep: &Sweep, proxy: &ShapeProxy) -> bool {
     let m = MAX_WORLD_COORDINATE;
@@ -748,24 +756,9 @@ pub fn time_of_impact(input: &ToiInput) -> ToiOutput {
     if let Err(failure) = validate(input) {
         return ToiOutput::failed(failure, 0.0);
     }
-    let any_rotation = input.sweep_a.a1 != input.sweep_a.a0 || input.sweep_b.a1 != input.sweep_b.a0;
-    // The search uses the reach only in its motion bounds, always multiplied by an angular
-    // speed: without rotation it is not needed, and the disc test makes do with a bound from
-    // the proxy's extent (no pass over the points, no square root).
-    let (frame_a, frame_b, reach) = if any_rotation {
-        let frame_a = BodyFrame::new(&input.sweep_a, &input.proxy_a);
-        let frame_b = BodyFrame::new(&input.sweep_b, &input.proxy_b);
-        (frame_a, frame_b, frame_a.reach + frame_b.reach)
-    } else {
-        let l1 = |v: Vec2| v.x.abs() + v.y.abs();
-        let bound = |sweep: &Sweep, proxy: &ShapeProxy| proxy.extent() + l1(sweep.local_center);
-        (
-            BodyFrame::with_reach(&input.sweep_a, 0.0),
-            BodyFrame::with_reach(&input.sweep_b, 0.0),
-            bound(&input.sweep_a, &input.proxy_a) + bound(&input.sweep_b, &input.proxy_b),
-        )
-    };
-    if discs_apart(input, reach) {
+    let frame_a = BodyFrame::new(&input.sweep_a, &input.proxy_a);
+    let frame_b = BodyFrame::new(&input.sweep_b, &input.proxy_b);
+    if discs_apart(input, frame_a.reach + frame_b.reach) {
         return ToiOutput {
             state: ToiState::Separated,
             fraction: input.max_fraction,
@@ -780,7 +773,7 @@ pub fn time_of_impact(input: &ToiInput) -> ToiOutput {
 /// candidate pair of a scene that passes at a distance.
 ///
 /// `reach` bounds the distance of any core point of A from A's centre of mass plus the same
-/// for B, whatever the rotation (the exact reaches, or `extent + |local_center|` each). The
+/// for B, whatever the rotation. The
 /// centres move on straight lines, so the core distance is at least `|d(t)| - reach`, with
 /// `d(t) = d0 + t dv` the vector between the centres. On `[0, t_max]`, `|d(t)|` is smallest
 /// at `t = 0` when `d0·dv >= 0`, at `t_max` when `-d0·dv >= t_max |dv|²`, and otherwise at the
