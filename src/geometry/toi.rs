@@ -427,7 +427,7 @@ impl<'a> SeparationFunction<'a> {
 
     /// The deepest points at the given poses and their separation along the axis, plus the
     /// rigorous lower bound `S` of the core distance.
-    #[inline]
+    #[inline(always)]
     fn min_separation_at(&self, xf_a: Pose, xf_b: Pose) -> (usize, usize, f32, f32) {
         match self.kind {
             SeparationKind::Points => {
@@ -474,7 +474,7 @@ impl<'a> SeparationFunction<'a> {
     }
 
     /// The separation of the given witness points at the given poses.
-    #[inline]
+    #[inline(always)]
     fn evaluate_at(&self, ia: usize, ib: usize, xf_a: Pose, xf_b: Pose) -> f32 {
         match self.kind {
             SeparationKind::Points => {
