@@ -793,18 +793,21 @@ fn a_disc_spun_about_its_centre_is_swept_like_a_translating_one() {
             still.fraction
         );
         hits += (spun.state == ToiState::Hit) as u32;
+        // A centred spin takes the linear path: nothing to certify.
+        assert_eq!(spun.certify_evaluations, 0, "sweep {k}");
         // The centre of mass 5 cm off the disc's centre: now the spin moves the disc, and
-        // an advance past the target is proven by certification.
+        // an advance past the target is proven by certification. Most skipped intervals are
+        // proven from their end values alone; a few need evaluations in between.
         let off = run(a0 + spin, Vec2::new(0.05, 0.0));
         certified_offsets += (off.certify_evaluations > 0) as u32;
     }
-    eprintln!("{hits} hits of 400; {certified_offsets} off-centre sweeps certified");
+    eprintln!("{hits} hits of 400; {certified_offsets} off-centre sweeps bisected");
     assert!(
         hits > 40 && hits < 360,
         "{hits} hits: the sweeps must mix hits and misses"
     );
     assert!(
-        certified_offsets > 40,
-        "an off-centre spin must be certified"
+        certified_offsets > 0,
+        "an off-centre spin must go through certification"
     );
 }
