@@ -57,7 +57,10 @@
 //! `TOI_BENCH_VERBOSE=1` lists every answer that is not correct; `TOI_BENCH_PROFILE=n` skips
 //! all timing and calls every implementation `n` more times per case, for an instruction
 //! count per call under `valgrind --tool=callgrind` (each implementation is called through
-//! its own never-inlined `call_*` function).
+//! its own never-inlined `call_*` function; `--toggle-collect='toi::call_ours'` counts ours
+//! alone); `TOI_BENCH_ENGINES=ours,box2d` limits those calls to the named implementations
+//! (for `perf record`); `TOI_BENCH_CASES=<file>` writes one line per case: each
+//! implementation's time and verdict and our advance, root-finder and certification counts.
 
 // The tests' oracle and the reference geometry it scores with; the bench uses part of each.
 #[allow(dead_code)]

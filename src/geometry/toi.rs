@@ -341,16 +341,8 @@ impl<'a> SeparationFunction<'a> {
         xf_a: Pose,
         xf_b: Pose,
     ) -> Self {
-        let mut f = Self {
-            proxy_a,
-            proxy_b,
-            motion_a,
-            motion_b,
-            kind: SeparationKind::Points,
-            local_point: Vec2::ZERO,
-            axis: Vec2::ZERO,
-            face_excess: 0.0,
-        };
+        // A points function to start from; every branch below sets the axis.
+        let mut f = Self::along(Vec2::X, proxy_a, motion_a, proxy_b, motion_b);
         let ia0 = cache.index_a[0] as usize;
         let ib0 = cache.index_b[0] as usize;
         if cache.count == 1 {
