@@ -421,6 +421,8 @@ impl<'a> SeparationFunction<'a> {
 
     /// The deepest points at the given poses and their separation along the axis, plus the
     /// rigorous lower bound `S` of the core distance.
+    // Always inlined: called at a handful of places in the search, where a call's spills cost
+    // more than the body (the decisions table in BENCHMARKS.md).
     #[inline(always)]
     fn min_separation_at(&self, xf_a: Pose, xf_b: Pose) -> (usize, usize, f32, f32) {
         match self.kind {
@@ -468,6 +470,7 @@ impl<'a> SeparationFunction<'a> {
     }
 
     /// The separation of the given witness points at the given poses.
+    // Always inlined, as `min_separation_at`: the root finder calls it on every iteration.
     #[inline(always)]
     fn evaluate_at(&self, ia: usize, ib: usize, xf_a: Pose, xf_b: Pose) -> f32 {
         match self.kind {
@@ -500,13 +503,12 @@ impl<'a> SeparationFunction<'a> {
         let v_rel = mb.v - ma.v;
         let wa = ma.w.abs();
         let wb = mb.w.abs();
-        let (reach_a, reach_b) = (ma.reach, mb.reach);
         match self.kind {
             SeparationKind::Points => MotionBounds {
                 // f = n·(b_j(t) - a_i(t)), n fixed: f' = n·(vB - vA) + rotation terms,
                 // f'' = n·(b_j'' - a_i''), |b_j''| = wB² |r_j|.
-                lipschitz: self.axis.dot(v_rel).abs() + wa * reach_a + wb * reach_b,
-                curvature: wa * wa * reach_a + wb * wb * reach_b,
+                lipschitz: self.axis.dot(v_rel).abs() + wa * ma.reach + wb * mb.reach,
+                curvature: wa * wa * ma.reach + wb * wb * mb.reach,
             },
             SeparationKind::FaceA | SeparationKind::FaceB => {
                 let d = (mb.center(t1) - ma.center(t1))
@@ -514,9 +516,9 @@ impl<'a> SeparationFunction<'a> {
                     .max((mb.center(t2) - ma.center(t2)).length());
                 // The face body turns the axis; the other body's points sweep around it.
                 let (w_face, w_other, reach_other, n1) = if self.kind == SeparationKind::FaceA {
-                    (wa, wb, reach_b, xf_a1.q.rotate(self.axis))
+                    (wa, wb, mb.reach, xf_a1.q.rotate(self.axis))
                 } else {
-                    (wb, wa, reach_a, xf_b1.q.rotate(self.axis))
+                    (wb, wa, ma.reach, xf_b1.q.rotate(self.axis))
                 };
                 // f = n(t)·u(t), u = b_j - c_face, |u| <= D + R_other,
                 // |u'| <= |v_rel| + w_other R_other, |u''| <= w_other² R_other, |n'| = w_face,
