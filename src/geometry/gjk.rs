@@ -16,9 +16,9 @@
 
 use glam::Vec2;
 
-use super::constants::GJK_MAX_ITERATIONS;
+use super::constants::{GJK_MAX_ITERATIONS, MAX_POLYGON_VERTICES};
 use super::math::{Pose, Rot, cross, left_perp, right_perp};
-use super::proxy::ShapeProxy;
+use super::proxy::{ShapeProxy, support_index};
 
 /// The vertex indices of the last simplex, kept between queries to warm-start GJK.
 ///
@@ -96,36 +96,36 @@ pub(crate) fn relative_pose(a: Pose, b: Pose) -> Pose {
     }
 }
 
-/// The simplex vertex of support indices `ia` on A and `ib` on B (B placed by `xf`).
+/// The simplex vertex of support indices `ia` on A and `ib` on B (B's points in A's frame).
 #[inline]
-fn vertex(a: &ShapeProxy, b: &ShapeProxy, xf: Pose, ia: usize, ib: usize) -> SimplexVertex {
+fn vertex(a: &ShapeProxy, b: &[Vec2], ia: usize, ib: usize) -> SimplexVertex {
     SimplexVertex {
-        w: xf.transform_point(b.point(ib)) - a.point(ia),
+        w: b[ib] - a.point(ia),
         index_a: ia as u8,
         index_b: ib as u8,
     }
 }
 
 impl Simplex {
-    fn from_cache(cache: &SimplexCache, a: &ShapeProxy, b: &ShapeProxy, xf: Pose) -> Self {
+    fn from_cache(cache: &SimplexCache, a: &ShapeProxy, b: &[Vec2], xf: Pose) -> Self {
         let mut s = Simplex::default();
         let count = (cache.count as usize).min(3);
         for i in 0..count {
             let ia = cache.index_a[i] as usize;
             let ib = cache.index_b[i] as usize;
-            if ia >= a.count() || ib >= b.count() {
+            if ia >= a.count() || ib >= b.len() {
                 // A cache from other shapes: start cold.
                 s.count = 0;
                 break;
             }
-            s.v[i] = vertex(a, b, xf, ia, ib);
+            s.v[i] = vertex(a, b, ia, ib);
             s.count = i + 1;
         }
         if s.count == 0 {
             // Cold start from the supports that face each other along the line between the
             // two frame origins (not vertex 0 of each): fewer iterations to converge.
             let d = xf.p;
-            s.v[0] = vertex(a, b, xf, a.support(d), b.support(xf.q.inv_rotate(-d)));
+            s.v[0] = vertex(a, b, a.support(d), support_index(b, -d));
             s.count = 1;
         }
         s
@@ -183,13 +183,13 @@ impl Simplex {
     }
 
     /// The closest points on A and on B (in A's frame) of the reduced simplex.
-    fn witness_points(&self, a: &ShapeProxy, b: &ShapeProxy, xf: Pose) -> (Vec2, Vec2) {
+    fn witness_points(&self, a: &ShapeProxy, b: &[Vec2]) -> (Vec2, Vec2) {
         let weights = self.weights();
         let mut pa = Vec2::ZERO;
         let mut pb = Vec2::ZERO;
         for (v, &weight) in self.v[..self.count].iter().zip(&weights) {
             pa += weight * a.point(v.index_a as usize);
-            pb += weight * xf.transform_point(b.point(v.index_b as usize));
+            pb += weight * b[v.index_b as usize];
         }
         if self.count == 3 { (pa, pa) } else { (pa, pb) }
     }
@@ -270,7 +270,15 @@ pub fn shape_distance(input: &DistanceInput<'_>, cache: &mut SimplexCache) -> Di
     let b = input.proxy_b;
     // Work in A's frame: the relative pose keeps coordinates small near far-away bodies.
     let xf = relative_pose(input.pose_a, input.pose_b);
-    let mut simplex = Simplex::from_cache(cache, a, b, xf);
+    // B's points placed in A's frame once: every support of B is then a scan of them, with
+    // no rotation of the direction before it nor of the point after it on the iteration's
+    // dependency chain.
+    let mut placed = [Vec2::ZERO; MAX_POLYGON_VERTICES];
+    for (out, p) in placed.iter_mut().zip(b.points()) {
+        *out = xf.transform_point(*p);
+    }
+    let b_points = &placed[..b.count()];
+    let mut simplex = Simplex::from_cache(cache, a, b_points, xf);
 
     let mut iter = 0;
     // The last search direction, used for the normal when the closest points coincide.
@@ -294,7 +302,7 @@ pub fn shape_distance(input: &DistanceInput<'_>, cache: &mut SimplexCache) -> Di
         last_dir = d;
         // support(B, d) - support(A, -d)
         let ia = a.support(-d);
-        let ib = b.support(xf.q.inv_rotate(d));
+        let ib = support_index(b_points, d);
         iter += 1;
         // A repeated support point means no progress: the main termination criterion.
         let duplicate = saved.v[..saved.count]
@@ -303,11 +311,11 @@ pub fn shape_distance(input: &DistanceInput<'_>, cache: &mut SimplexCache) -> Di
         if duplicate {
             break;
         }
-        simplex.v[simplex.count] = vertex(a, b, xf, ia, ib);
+        simplex.v[simplex.count] = vertex(a, b_points, ia, ib);
         simplex.count += 1;
     }
 
-    let (local_a, local_b) = simplex.witness_points(a, b, xf);
+    let (local_a, local_b) = simplex.witness_points(a, b_points);
     *cache = simplex.cache();
     let delta = local_b - local_a;
     let mut distance = delta.length();

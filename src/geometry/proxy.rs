@@ -125,16 +125,7 @@ impl ShapeProxy {
     /// answer is deterministic).
     #[inline]
     pub fn support(&self, direction: Vec2) -> usize {
-        let mut best = 0;
-        let mut best_value = direction.dot(self.points[0]);
-        for i in 1..self.count as usize {
-            let value = direction.dot(self.points[i]);
-            if value > best_value {
-                best = i;
-                best_value = value;
-            }
-        }
-        best
+        support_index(self.points(), direction)
     }
 
     /// The bounding box of the proxy (core and radius) at `pose`.
@@ -212,6 +203,22 @@ impl ShapeProxy {
     pub fn is_finite(&self) -> bool {
         self.radius.is_finite() && self.points().iter().all(|p| p.is_finite())
     }
+}
+
+/// The index of the point of `points` (not empty) farthest along `direction`, the first one
+/// on ties: [`ShapeProxy::support`], and GJK's support of a shape whose points it has moved.
+#[inline]
+pub(crate) fn support_index(points: &[Vec2], direction: Vec2) -> usize {
+    let mut best = 0;
+    let mut best_value = direction.dot(points[0]);
+    for (i, p) in points.iter().enumerate().skip(1) {
+        let value = direction.dot(*p);
+        if value > best_value {
+            best = i;
+            best_value = value;
+        }
+    }
+    best
 }
 
 #[cfg(test)]
