@@ -261,6 +261,35 @@ impl Simplex {
     }
 }
 
+/// The normal (A's frame) of two cores that touch: a vertex on an edge, or two vertices.
+///
+/// On an edge the normal is the edge's, but the side it points to cannot be read off a
+/// simplex that holds the origin: the search direction's sign is rounding. B lies on the
+/// other side of the edge's line from A, and so do the means of their vertices (inside the
+/// hulls), so the normal points the way the means differ; only a flat pair (both means on
+/// the line) falls back to the last search direction, as a vertex pair does.
+fn touching_normal(
+    simplex: &Simplex,
+    a: &ShapeProxy,
+    b: &[Vec2],
+    edge_normal: Vec2,
+    last_dir: Vec2,
+) -> Vec2 {
+    let fallback = -last_dir.normalize_or_zero();
+    if simplex.count != 2 || edge_normal == Vec2::ZERO {
+        return fallback;
+    }
+    let mean = |points: &[Vec2]| points.iter().copied().sum::<Vec2>() / points.len() as f32;
+    let side = edge_normal.dot(mean(b) - mean(a.points()));
+    if side > 0.0 {
+        edge_normal
+    } else if side < 0.0 {
+        -edge_normal
+    } else {
+        fallback
+    }
+}
+
 /// The distance between two proxies, their closest points and features.
 ///
 /// `cache` warm-starts the search and receives the final simplex; pass a default cache for a
@@ -339,8 +368,7 @@ pub fn shape_distance(input: &DistanceInput<'_>, cache: &mut SimplexCache) -> Di
     } else if distance > f32::EPSILON {
         delta / distance
     } else {
-        // Touching cores: the search direction points from the origin toward B's side.
-        -last_dir.normalize_or_zero()
+        touching_normal(&simplex, a, b_points, edge_normal, last_dir)
     };
     let pa = input.pose_a;
     let mut point_a = pa.transform_point(local_a);
@@ -362,5 +390,58 @@ pub fn shape_distance(input: &DistanceInput<'_>, cache: &mut SimplexCache) -> Di
         distance,
         iterations: iter,
         simplex_count: simplex.count as u32,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A point core on a box's top face (a ball's centre on a platform): the normal from the
+    /// point to the box points down whatever simplex GJK starts from. The side used to be
+    /// read off the last search direction, which some starts turn upward.
+    #[test]
+    fn touching_cores_get_the_normal_toward_b_from_any_start() {
+        let point = ShapeProxy::new(&[Vec2::ZERO], 0.5).unwrap();
+        let v = Vec2::new;
+        let plate = ShapeProxy::new(
+            &[v(-2.0, -0.05), v(2.0, -0.05), v(2.0, 0.05), v(-2.0, 0.05)],
+            0.0,
+        )
+        .unwrap();
+        let mut starts = vec![SimplexCache::default()];
+        for ib in 0..4u8 {
+            starts.push(SimplexCache {
+                count: 1,
+                index_a: [0; 3],
+                index_b: [ib, 0, 0],
+            });
+            for jb in 0..4u8 {
+                if jb != ib {
+                    starts.push(SimplexCache {
+                        count: 2,
+                        index_a: [0; 3],
+                        index_b: [ib, jb, 0],
+                    });
+                }
+            }
+        }
+        for x in [-1.5, 0.0, 0.3] {
+            for start in &starts {
+                let mut cache = *start;
+                let out = shape_distance(
+                    &DistanceInput {
+                        proxy_a: &point,
+                        proxy_b: &plate,
+                        pose_a: Pose::new(v(x, 0.0), 0.0),
+                        pose_b: Pose::new(v(0.0, -0.05), 0.0),
+                        use_radii: false,
+                    },
+                    &mut cache,
+                );
+                assert_eq!(out.distance, 0.0);
+                assert_eq!(out.normal, v(0.0, -1.0), "x {x}, start {start:?}: {out:?}");
+            }
+        }
     }
 }

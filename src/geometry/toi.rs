@@ -53,6 +53,19 @@
 //! from `t1`, the same `t1` is tried once more with the world axis along GJK's normal, along
 //! which `S(t1)` is the distance itself (above the band, or GJK would have reported a hit).
 //!
+//! # Proofs before GJK
+//!
+//! Most pairs a caller asks about pass each other at a distance, and [`time_of_impact`] proves
+//! those `Separated` before the first GJK: by bounding discs when even they stay apart (no
+//! support, no square root), else by `S` along the line between the centres of mass where they
+//! pass closest, with the certification bound over the whole interval at once (two supports a
+//! side, a sine and cosine only if the start passes). Either proof keeps every distance on
+//! the interval above the hit band, so the search would find no hit either. When the line
+//! proves nothing, its supports at the start are GJK's first simplex vertex, and the search
+//! goes on as above. The plugin's solver culls its pairs before the query (`cull.rs`) and hands
+//! over only those that come close, where the line rarely proves anything, so its queries
+//! skip it.
+//!
 //! Tolerances derive from the slop (Box2D): `target = slop`, `tolerance = slop / 4`, both
 //! measured between the surfaces (radii included), so a hit leaves the shapes `slop ± slop/4`
 //! apart.
@@ -260,6 +273,8 @@ struct Motion {
     q0: Rot,
     /// Largest distance of a core point from the centre of mass (m).
     reach: f32,
+    /// The pose at the end of the search interval, once computed (see [`Self::pose_known`]).
+    end: Option<(f32, Pose)>,
 }
 
 impl Motion {
@@ -280,6 +295,17 @@ impl Motion {
             local_center: sweep.local_center,
             q0: frame.q0,
             reach: frame.reach,
+            end: None,
+        }
+    }
+
+    /// [`Self::pose`], taking the end pose from [`Self::end`] when it is known: a spinning
+    /// body's end pose costs a sine and a cosine, which the early proof may already have paid.
+    #[inline]
+    fn pose_known(&self, t: f32) -> Pose {
+        match self.end {
+            Some((end_t, pose)) if t == end_t => pose,
+            _ => self.pose(t),
         }
     }
 
@@ -455,7 +481,7 @@ impl<'a> SeparationFunction<'a> {
 
     #[inline]
     fn min_separation(&self, t: f32) -> (usize, usize, f32, f32) {
-        self.min_separation_at(self.motion_a.pose(t), self.motion_b.pose(t))
+        self.min_separation_at(self.motion_a.pose_known(t), self.motion_b.pose_known(t))
     }
 
     #[inline]
@@ -802,7 +828,7 @@ pub fn time_of_impact(input: &ToiInput) -> ToiOutput {
             ..ToiOutput::failed(ToiFailure::IterationLimit, 0.0)
         };
     }
-    search(input, frame_a, frame_b, 0.0)
+    search(input, frame_a, frame_b, 0.0, Screen::Centres)
 }
 
 /// Whether discs that hold the two shapes stay out of hit range over the whole interval,
@@ -868,21 +894,108 @@ pub(crate) fn time_of_impact_framed(
     if let Err(failure) = validate(input) {
         return ToiOutput::failed(failure, 0.0);
     }
-    search(input, frame_a, frame_b, start)
+    search(input, frame_a, frame_b, start, Screen::None)
+}
+
+/// Proves the pair out of the hit band on `[t1, t_max]` along one world axis, with no GJK:
+/// the line between the centres of mass where they pass closest. `S` along any axis bounds
+/// the core distance from below, so `S > level` at both ends with the certification bound
+/// above `level` between them proves every distance on the interval above `level`, and the
+/// search would find nothing either. Otherwise returns the supports at `t1` along the axis as
+/// GJK's first simplex vertex (its own cold start takes the same pair, along the line between
+/// the frames).
+fn apart_along_centres(
+    proxy_a: &ShapeProxy,
+    motion_a: &Motion,
+    proxy_b: &ShapeProxy,
+    motion_b: &Motion,
+    t1: f32,
+    t_max: f32,
+    level: f32,
+) -> Result<(), Unproven> {
+    // The axis d1 + τ dv at the centres' closest approach τ = clamp(-d1·dv / |dv|², 0, T),
+    // scaled by |dv|² where τ is inside (no division), and tested unnormalised (no square
+    // root): a pair that fails here, most of those GJK must see, pays two supports, which
+    // GJK's first vertex reuses.
+    let d1 = motion_b.center(t1) - motion_a.center(t1);
+    let dv = motion_b.v - motion_a.v;
+    let (e, dv2, span) = (d1.dot(dv), dv.dot(dv), t_max - t1);
+    let axis = if e >= 0.0 {
+        d1
+    } else if -e >= span * dv2 {
+        d1 + span * dv
+    } else {
+        dv2 * d1 - e * dv
+    };
+    let (xf_a, xf_b) = (motion_a.pose(t1), motion_b.pose(t1));
+    let ia = proxy_a.support(xf_a.q.inv_rotate(axis));
+    let ib = proxy_b.support(xf_b.q.inv_rotate(-axis));
+    let gap = (xf_b.transform_point(proxy_b.point(ib)) - xf_a.transform_point(proxy_a.point(ia)))
+        .dot(axis);
+    let mut end_poses = None;
+    // gap = |axis| S(t1): S(t1) > level, squared (level > 0).
+    if gap > 0.0 && gap * gap > level * level * axis.length_squared() {
+        let f = SeparationFunction::along(axis, proxy_a, motion_a, proxy_b, motion_b);
+        let s1 = f.min_separation_at(xf_a, xf_b).3;
+        let bounds = f.motion_bounds(t1, t_max, xf_a, xf_b);
+        // `S(t_max)` is at most the centres' gap along the axis plus both reaches, and the
+        // bound grows with it: when even that cannot prove the interval (a fast turn), the
+        // trigonometry of the end pose is not worth spending.
+        let d2 = motion_b.center(t_max) - motion_a.center(t_max);
+        let s2_most = f.axis.dot(d2) + motion_a.reach + motion_b.reach;
+        if bounds.lower(s1, s2_most, span) > level {
+            let end = (motion_a.pose(t_max), motion_b.pose(t_max));
+            let s2 = f.min_separation_at(end.0, end.1).3;
+            if s2 > level && bounds.lower(s1, s2, span) > level {
+                return Ok(());
+            }
+            end_poses = Some(end);
+        }
+    }
+    let seed = SimplexCache {
+        count: 1,
+        index_a: [ia as u8, 0, 0],
+        index_b: [ib as u8, 0, 0],
+    };
+    Err(Unproven { seed, end_poses })
+}
+
+/// Which proof of separation [`search`] tries before its first GJK.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+enum Screen {
+    /// None: the caller has culled the pair already (the plugin's solver, `cull.rs`), so the
+    /// pairs it hands over are those a cheap proof rarely settles, and trying would only cost.
+    None,
+    /// [`apart_along_centres`]: for [`time_of_impact`]'s callers, whose pairs come unculled.
+    Centres,
+}
+
+/// What a failed early proof hands on to the search.
+struct Unproven {
+    /// The supports along the axis at the start, GJK's first simplex vertex.
+    seed: SimplexCache,
+    /// Both poses at the end of the interval, if the proof got as far as computing them.
+    end_poses: Option<(Pose, Pose)>,
 }
 
 /// The bilateral advancement of [`time_of_impact_framed`] on validated input.
-fn search(input: &ToiInput, frame_a: BodyFrame, frame_b: BodyFrame, start: f32) -> ToiOutput {
+fn search(
+    input: &ToiInput,
+    frame_a: BodyFrame,
+    frame_b: BodyFrame,
+    start: f32,
+    screen: Screen,
+) -> ToiOutput {
     let proxy_a = &input.proxy_a;
     let proxy_b = &input.proxy_b;
     // Work relative to A's start: far from the world origin, differences of nearby large
     // coordinates are exact in f32 (Sterbenz), so the query keeps its precision.
     let origin = input.sweep_a.c0;
-    let motion_a = Motion::new(&input.sweep_a, proxy_a, origin, frame_a);
-    let motion_b = Motion::new(&input.sweep_b, proxy_b, origin, frame_b);
+    let t_max = input.max_fraction;
+    let mut motion_a = Motion::new(&input.sweep_a, proxy_a, origin, frame_a);
+    let mut motion_b = Motion::new(&input.sweep_b, proxy_b, origin, frame_b);
     let any_rotation = motion_a.w != 0.0 || motion_b.w != 0.0;
 
-    let t_max = input.max_fraction;
     let total_radius = proxy_a.radius + proxy_b.radius;
     let slop = input.config.linear_slop;
     // Targets on the core distance: the surfaces end `slop ± slop/4` apart. A lowered target
@@ -899,12 +1012,40 @@ fn search(input: &ToiInput, frame_a: BodyFrame, frame_b: BodyFrame, start: f32) 
     let contact_level = target - tolerance;
 
     let mut out = ToiOutput::failed(ToiFailure::IterationLimit, 0.0);
-    let mut cache = SimplexCache::default();
     // A start outside `[0, max_fraction]` (or NaN) is ignored: the search starts at 0.
     let mut t1 = if start > 0.0 && start <= input.max_fraction {
         start
     } else {
         0.0
+    };
+    let screened = match screen {
+        Screen::None => Err(Unproven {
+            seed: SimplexCache::default(),
+            end_poses: None,
+        }),
+        Screen::Centres => apart_along_centres(
+            proxy_a,
+            &motion_a,
+            proxy_b,
+            &motion_b,
+            t1,
+            t_max,
+            target + tolerance,
+        ),
+    };
+    let mut cache = match screened {
+        Ok(()) => {
+            out.state = ToiState::Separated;
+            out.fraction = t_max;
+            return out;
+        }
+        Err(unproven) => {
+            if let Some((end_a, end_b)) = unproven.end_poses {
+                motion_a.end = Some((t_max, end_a));
+                motion_b.end = Some((t_max, end_b));
+            }
+            unproven.seed
+        }
     };
     // The end of the current search window: the whole interval at first, a sub-interval after
     // a certification that could prove only a prefix.
@@ -1168,6 +1309,52 @@ mod tests {
         let near = time_of_impact(&query(1.004));
         assert_eq!(near.state, ToiState::Hit);
         assert!(near.iterations > 0);
+    }
+
+    /// The early proof along the centres' line never settles a pair the search would not call
+    /// `Separated`, and changes no answer's state: random shapes passing one another at up to
+    /// two slops beyond their bounding discs' contact, turning up to a turn and a half. It
+    /// settles a good share of the pairs the disc test cannot (which this test would catch
+    /// if the proof stopped working), and the rest reach GJK from its seed.
+    #[test]
+    fn the_early_proof_only_settles_what_the_search_calls_separated() {
+        use crate::geometry::test_support::{Rng, shape};
+        let mut rng = Rng(7);
+        let (mut screened, mut beyond_discs) = (0, 0);
+        for _ in 0..20_000 {
+            let (a, b) = (shape(&mut rng), shape(&mut rng));
+            let mut sweep = |rng: &mut Rng| {
+                let c0 = Vec2::new(rng.range(-1.5, 1.5), rng.range(-1.5, 1.5));
+                let c1 = c0 + Vec2::new(rng.range(-3.0, 3.0), rng.range(-3.0, 3.0));
+                let a0 = rng.range(-3.2, 3.2);
+                let lc = Vec2::new(rng.range(-0.1, 0.1), rng.range(-0.1, 0.1));
+                Sweep::new(
+                    lc,
+                    c0,
+                    a0,
+                    c1,
+                    a0 + rng.range(-9.5, 9.5) * rng.next().powi(3),
+                )
+            };
+            let (sa, sb) = (sweep(&mut rng), sweep(&mut rng));
+            let input = ToiInput::new(a, sa, b, sb);
+            let (fa, fb) = (BodyFrame::new(&sa, &a), BodyFrame::new(&sb, &b));
+            if discs_apart(&input, fa.reach + fb.reach) {
+                continue;
+            }
+            beyond_discs += 1;
+            let out = time_of_impact(&input);
+            let full = time_of_impact_framed(&input, fa, fb, 0.0);
+            assert_eq!(out.state, full.state, "{input:?}");
+            if out.state == ToiState::Separated && out.iterations == 0 {
+                screened += 1;
+                assert_eq!(full.fraction, out.fraction);
+            }
+        }
+        assert!(
+            screened * 10 >= beyond_discs,
+            "the early proof settled {screened} of {beyond_discs} pairs"
+        );
     }
 
     /// A thin rod standing on its end on a long floor, its centre of mass off the rod, turning
