@@ -1323,7 +1323,7 @@ mod tests {
         let (mut screened, mut beyond_discs) = (0, 0);
         for _ in 0..20_000 {
             let (a, b) = (shape(&mut rng), shape(&mut rng));
-            let mut sweep = |rng: &mut Rng| {
+            let sweep = |rng: &mut Rng| {
                 let c0 = Vec2::new(rng.range(-1.5, 1.5), rng.range(-1.5, 1.5));
                 let c1 = c0 + Vec2::new(rng.range(-3.0, 3.0), rng.range(-3.0, 3.0));
                 let a0 = rng.range(-3.2, 3.2);
