@@ -209,6 +209,12 @@ impl ShapeProxy {
 /// on ties: [`ShapeProxy::support`], and GJK's support of a shape whose points it has moved.
 #[inline]
 pub(crate) fn support_index(points: &[Vec2], direction: Vec2) -> usize {
+    support(points, direction).0
+}
+
+/// [`support_index`] with the point's value along `direction`.
+#[inline]
+pub(crate) fn support(points: &[Vec2], direction: Vec2) -> (usize, f32) {
     let mut best = 0;
     let mut best_value = direction.dot(points[0]);
     for (i, p) in points.iter().enumerate().skip(1) {
@@ -218,7 +224,7 @@ pub(crate) fn support_index(points: &[Vec2], direction: Vec2) -> usize {
             best_value = value;
         }
     }
-    best
+    (best, best_value)
 }
 
 #[cfg(test)]

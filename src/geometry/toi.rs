@@ -78,7 +78,7 @@ use super::constants::{
 };
 use super::gjk::{DistanceInput, SimplexCache, shape_distance};
 use super::math::{Pose, Rot, cross, right_perp};
-use super::proxy::ShapeProxy;
+use super::proxy::{ShapeProxy, support};
 use super::sweep::Sweep;
 
 /// Settings of a time-of-impact query.
@@ -928,10 +928,11 @@ fn apart_along_centres(
         dv2 * d1 - e * dv
     };
     let (xf_a, xf_b) = (motion_a.pose(t1), motion_b.pose(t1));
-    let ia = proxy_a.support(xf_a.q.inv_rotate(axis));
-    let ib = proxy_b.support(xf_b.q.inv_rotate(-axis));
-    let gap = (xf_b.transform_point(proxy_b.point(ib)) - xf_a.transform_point(proxy_a.point(ia)))
-        .dot(axis);
+    // Along `n`, A reaches `n·p_a + max (q_aᵀ n)·a` (its frame's origin `p_a`, its points `a`)
+    // and B starts at `n·p_b - max (-q_bᵀ n)·b`.
+    let (ia, reach_a) = support(proxy_a.points(), xf_a.q.inv_rotate(axis));
+    let (ib, reach_b) = support(proxy_b.points(), xf_b.q.inv_rotate(-axis));
+    let gap = (xf_b.p - xf_a.p).dot(axis) - reach_a - reach_b;
     let mut end_poses = None;
     // gap = |axis| S(t1): S(t1) > level, squared (level > 0).
     if gap > 0.0 && gap * gap > level * level * axis.length_squared() {
