@@ -936,8 +936,9 @@ fn apart_along_centres(
     let mut end_poses = None;
     // gap = |axis| S(t1): S(t1) > level, squared (level > 0).
     if gap > 0.0 && gap * gap > level * level * axis.length_squared() {
-        let f = SeparationFunction::along(axis, proxy_a, motion_a, proxy_b, motion_b);
-        let s1 = f.min_separation_at(xf_a, xf_b).3;
+        let length = axis.length();
+        let f = SeparationFunction::along(axis / length, proxy_a, motion_a, proxy_b, motion_b);
+        let s1 = gap / length;
         let bounds = f.motion_bounds(t1, t_max, xf_a, xf_b);
         // `S(t_max)` is at most the centres' gap along the axis plus both reaches, and the
         // bound grows with it: when even that cannot prove the interval (a fast turn), the
