@@ -77,10 +77,23 @@ struct SimplexVertex {
     index_b: u8,
 }
 
+impl SimplexVertex {
+    /// Both indices in one number, for the duplicate test.
+    #[inline]
+    fn key(&self) -> u16 {
+        u16::from(self.index_a) | (u16::from(self.index_b) << 8)
+    }
+}
+
+/// The simplex as three named vertices, never indexed by a runtime count: the optimiser then
+/// keeps it in registers. Held in an array, it lived on the stack, and every copy of it read
+/// back vertices just written field by field, a store-forwarding stall on each iteration.
 #[derive(Clone, Copy, Default)]
 struct Simplex {
-    v: [SimplexVertex; 3],
-    count: usize,
+    v1: SimplexVertex,
+    v2: SimplexVertex,
+    v3: SimplexVertex,
+    count: u8,
 }
 
 /// The pose of B in A's frame: `inv(A) * B`.
@@ -108,47 +121,86 @@ fn vertex(a: &ShapeProxy, b: &[Vec2], ia: usize, ib: usize) -> SimplexVertex {
 
 impl Simplex {
     fn from_cache(cache: &SimplexCache, a: &ShapeProxy, b: &[Vec2], xf: Pose) -> Self {
-        let mut s = Simplex::default();
-        let count = (cache.count as usize).min(3);
-        for i in 0..count {
-            let ia = cache.index_a[i] as usize;
-            let ib = cache.index_b[i] as usize;
-            if ia >= a.count() || ib >= b.len() {
-                // A cache from other shapes: start cold.
-                s.count = 0;
-                break;
-            }
-            s.v[i] = vertex(a, b, ia, ib);
-            s.count = i + 1;
-        }
-        if s.count == 0 {
-            // Cold start from the supports that face each other along the line between the
-            // two frame origins (not vertex 0 of each): fewer iterations to converge.
+        let count = cache.count.min(3);
+        let valid = (0..usize::from(count)).all(|i| {
+            usize::from(cache.index_a[i]) < a.count() && usize::from(cache.index_b[i]) < b.len()
+        });
+        if count == 0 || !valid {
+            // A cold start (or a cache from other shapes) begins at the supports that face
+            // each other along the line between the two frame origins (not vertex 0 of each):
+            // fewer iterations to converge.
             let d = xf.p;
-            s.v[0] = vertex(a, b, a.support(d), support_index(b, -d));
-            s.count = 1;
+            return Simplex {
+                v1: vertex(a, b, a.support(d), support_index(b, -d)),
+                count: 1,
+                ..Default::default()
+            };
+        }
+        let at = |i: usize| {
+            vertex(
+                a,
+                b,
+                usize::from(cache.index_a[i]),
+                usize::from(cache.index_b[i]),
+            )
+        };
+        let mut s = Simplex {
+            v1: at(0),
+            count,
+            ..Default::default()
+        };
+        if count >= 2 {
+            s.v2 = at(1);
+        }
+        if count == 3 {
+            s.v3 = at(2);
         }
         s
     }
 
+    /// The vertices in use.
+    fn vertices(&self) -> ([SimplexVertex; 3], usize) {
+        ([self.v1, self.v2, self.v3], usize::from(self.count))
+    }
+
     fn cache(&self) -> SimplexCache {
+        let (v, count) = self.vertices();
         let mut c = SimplexCache {
-            count: self.count as u8,
+            count: count as u8,
             ..Default::default()
         };
-        for i in 0..self.count {
-            c.index_a[i] = self.v[i].index_a;
-            c.index_b[i] = self.v[i].index_b;
+        for (i, v) in v[..count].iter().enumerate() {
+            c.index_a[i] = v.index_a;
+            c.index_b[i] = v.index_b;
         }
         c
     }
 
+    /// Appends a vertex to a simplex of one or two.
+    #[inline]
+    fn push(&mut self, v: SimplexVertex) {
+        if self.count == 1 {
+            self.v2 = v;
+        } else {
+            self.v3 = v;
+        }
+        self.count += 1;
+    }
+
+    /// Whether a vertex of the simplex has this key (see [`SimplexVertex::key`]).
+    #[inline]
+    fn contains(&self, key: u16) -> bool {
+        (self.v1.key() == key)
+            | ((self.count >= 2) & (self.v2.key() == key))
+            | ((self.count == 3) & (self.v3.key() == key))
+    }
+
     fn search_direction(&self) -> Vec2 {
         match self.count {
-            1 => -self.v[0].w,
+            1 => -self.v1.w,
             _ => {
-                let e12 = self.v[1].w - self.v[0].w;
-                if cross(e12, -self.v[0].w) > 0.0 {
+                let e12 = self.v2.w - self.v1.w;
+                if cross(e12, -self.v1.w) > 0.0 {
                     left_perp(e12)
                 } else {
                     right_perp(e12)
@@ -162,14 +214,14 @@ impl Simplex {
         match self.count {
             1 => [1.0, 0.0, 0.0],
             2 => {
-                let (w1, w2) = (self.v[0].w, self.v[1].w);
+                let (w1, w2) = (self.v1.w, self.v2.w);
                 let e12 = w2 - w1;
                 let (d12_1, d12_2) = (w2.dot(e12), -w1.dot(e12));
                 let inv = 1.0 / (d12_1 + d12_2);
                 [d12_1 * inv, d12_2 * inv, 0.0]
             }
             _ => {
-                let (w1, w2, w3) = (self.v[0].w, self.v[1].w, self.v[2].w);
+                let (w1, w2, w3) = (self.v1.w, self.v2.w, self.v3.w);
                 let n123 = cross(w2 - w1, w3 - w1);
                 let d = [
                     n123 * cross(w2, w3),
@@ -185,19 +237,20 @@ impl Simplex {
     /// The closest points on A and on B (in A's frame) of the reduced simplex.
     fn witness_points(&self, a: &ShapeProxy, b: &[Vec2]) -> (Vec2, Vec2) {
         let weights = self.weights();
+        let (v, count) = self.vertices();
         let mut pa = Vec2::ZERO;
         let mut pb = Vec2::ZERO;
-        for (v, &weight) in self.v[..self.count].iter().zip(&weights) {
+        for (v, &weight) in v[..count].iter().zip(&weights) {
             pa += weight * a.point(v.index_a as usize);
             pb += weight * b[v.index_b as usize];
         }
-        if self.count == 3 { (pa, pa) } else { (pa, pb) }
+        if count == 3 { (pa, pa) } else { (pa, pb) }
     }
 
     /// Keeps the smallest face of the edge `w1 w2` whose Voronoi region holds the origin.
     fn reduce2(&mut self) {
-        let w1 = self.v[0].w;
-        let w2 = self.v[1].w;
+        let w1 = self.v1.w;
+        let w2 = self.v2.w;
         let e12 = w2 - w1;
         // w1 region
         if -w1.dot(e12) <= 0.0 {
@@ -207,16 +260,15 @@ impl Simplex {
         // w2 region
         if w2.dot(e12) <= 0.0 {
             self.count = 1;
-            self.v[0] = self.v[1];
+            self.v1 = self.v2;
         }
         // Otherwise inside the edge: keep both.
     }
 
     /// The same for the triangle `w1 w2 w3`: vertex, edge, then interior regions.
     fn reduce3(&mut self) {
-        let w1 = self.v[0].w;
-        let w2 = self.v[1].w;
-        let w3 = self.v[2].w;
+        let (v1, v2, v3) = (self.v1, self.v2, self.v3);
+        let (w1, w2, w3) = (v1.w, v2.w, v3.w);
 
         let e12 = w2 - w1;
         let d12_1 = w2.dot(e12);
@@ -235,29 +287,28 @@ impl Simplex {
         let d123_2 = n123 * cross(w3, w1);
         let d123_3 = n123 * cross(w1, w2);
 
-        let keep = |s: &mut Self, first: usize, second: Option<usize>| {
-            let (v0, v1) = (s.v[first], second.map(|i| s.v[i]));
-            s.v[0] = v0;
-            s.count = 1;
-            if let Some(v1) = v1 {
-                s.v[1] = v1;
-                s.count = 2;
-            }
-        };
-        if d12_2 <= 0.0 && d13_2 <= 0.0 {
-            keep(self, 0, None); // w1
+        let (first, second) = if d12_2 <= 0.0 && d13_2 <= 0.0 {
+            (v1, None) // w1
         } else if d12_1 > 0.0 && d12_2 > 0.0 && d123_3 <= 0.0 {
-            keep(self, 0, Some(1)); // e12
+            (v1, Some(v2)) // e12
         } else if d13_1 > 0.0 && d13_2 > 0.0 && d123_2 <= 0.0 {
-            keep(self, 0, Some(2)); // e13
+            (v1, Some(v3)) // e13
         } else if d12_1 <= 0.0 && d23_2 <= 0.0 {
-            keep(self, 1, None); // w2
+            (v2, None) // w2
         } else if d13_1 <= 0.0 && d23_1 <= 0.0 {
-            keep(self, 2, None); // w3
+            (v3, None) // w3
         } else if d23_1 > 0.0 && d23_2 > 0.0 && d123_1 <= 0.0 {
-            keep(self, 2, Some(1)); // e23, as (w3, w2)
+            (v3, Some(v2)) // e23, as (w3, w2)
+        } else {
+            // Inside the triangle: the origin is in the Minkowski difference.
+            return;
+        };
+        self.v1 = first;
+        self.count = 1;
+        if let Some(second) = second {
+            self.v2 = second;
+            self.count = 2;
         }
-        // Otherwise inside the triangle: the origin is in the Minkowski difference.
     }
 }
 
@@ -330,18 +381,13 @@ pub fn shape_distance(input: &DistanceInput<'_>, cache: &mut SimplexCache) -> Di
         }
         last_dir = d;
         // support(B, d) - support(A, -d)
-        let ia = a.support(-d);
-        let ib = support_index(b_points, d);
+        let v = vertex(a, b_points, a.support(-d), support_index(b_points, d));
         iter += 1;
         // A repeated support point means no progress: the main termination criterion.
-        let duplicate = saved.v[..saved.count]
-            .iter()
-            .any(|v| v.index_a == ia as u8 && v.index_b == ib as u8);
-        if duplicate {
+        if saved.contains(v.key()) {
             break;
         }
-        simplex.v[simplex.count] = vertex(a, b_points, ia, ib);
-        simplex.count += 1;
+        simplex.push(v);
     }
 
     let (local_a, local_b) = simplex.witness_points(a, b_points);
@@ -353,8 +399,8 @@ pub fn shape_distance(input: &DistanceInput<'_>, cache: &mut SimplexCache) -> Di
         // edge rather than from the difference of the witness points avoids the cancellation
         // of two nearly equal points far from A's origin (a long floor): the difference of
         // two interpolated points carries their rounding, the edge direction does not.
-        let n = left_perp(simplex.v[1].w - simplex.v[0].w).normalize_or_zero();
-        if n.dot(simplex.v[0].w) < 0.0 { -n } else { n }
+        let n = left_perp(simplex.v2.w - simplex.v1.w).normalize_or_zero();
+        if n.dot(simplex.v1.w) < 0.0 { -n } else { n }
     } else {
         Vec2::ZERO
     };
@@ -363,7 +409,7 @@ pub fn shape_distance(input: &DistanceInput<'_>, cache: &mut SimplexCache) -> Di
         Vec2::ZERO
     } else if edge_normal != Vec2::ZERO && distance > f32::EPSILON {
         // The distance along that normal is exact up to one rounding of the support point.
-        distance = edge_normal.dot(simplex.v[0].w).max(0.0);
+        distance = edge_normal.dot(simplex.v1.w).max(0.0);
         edge_normal
     } else if distance > f32::EPSILON {
         delta / distance
