@@ -393,7 +393,6 @@ pub fn shape_distance(input: &DistanceInput<'_>, cache: &mut SimplexCache) -> Di
     let (local_a, local_b) = simplex.witness_points(a, b_points);
     *cache = simplex.cache();
     let delta = local_b - local_a;
-    let mut distance = delta.length();
     let edge_normal = if simplex.count == 2 {
         // Vertex–edge: the normal is perpendicular to the simplex edge. Taking it from the
         // edge rather than from the difference of the witness points avoids the cancellation
@@ -404,17 +403,19 @@ pub fn shape_distance(input: &DistanceInput<'_>, cache: &mut SimplexCache) -> Di
     } else {
         Vec2::ZERO
     };
-    let local_normal = if simplex.count == 3 {
-        distance = 0.0;
-        Vec2::ZERO
-    } else if edge_normal != Vec2::ZERO && distance > f32::EPSILON {
+    // Tested on the square: a vertex–edge pair, the common end, then takes no square root.
+    let apart = delta.length_squared() > f32::EPSILON * f32::EPSILON;
+    let (local_normal, mut distance) = if simplex.count == 3 {
+        (Vec2::ZERO, 0.0)
+    } else if edge_normal != Vec2::ZERO && apart {
         // The distance along that normal is exact up to one rounding of the support point.
-        distance = edge_normal.dot(simplex.v1.w).max(0.0);
-        edge_normal
-    } else if distance > f32::EPSILON {
-        delta / distance
+        (edge_normal, edge_normal.dot(simplex.v1.w).max(0.0))
+    } else if apart {
+        let distance = delta.length();
+        (delta / distance, distance)
     } else {
-        touching_normal(&simplex, a, b_points, edge_normal, last_dir)
+        let normal = touching_normal(&simplex, a, b_points, edge_normal, last_dir);
+        (normal, delta.length())
     };
     let pa = input.pose_a;
     let mut point_a = pa.transform_point(local_a);
