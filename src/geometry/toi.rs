@@ -751,17 +751,22 @@ fn certify(
     if covered(s1, s2, t2 - t1) {
         return (t2, t2);
     }
-    // Depth-first, earliest sub-interval first, so the certified prefix grows left to right.
-    const MAX_DEPTH: u32 = 10;
-    let mut stack: [(f32, f32, f32, f32, u32); MAX_DEPTH as usize + 1] =
-        [(0.0, 0.0, 0.0, 0.0, 0); MAX_DEPTH as usize + 1];
-    stack[0] = (t1, s1, t2, s2, 0);
+    // Depth-first, earliest sub-interval first, so the certified prefix grows left to right:
+    // each interval taken off the stack starts where the last proven one ended, `(a, sa)`,
+    // so the stack holds only right ends. One array per field: an entry read back whole
+    // after being written field by field would stall on store forwarding.
+    const MAX_DEPTH: u8 = 10;
+    const SLOTS: usize = MAX_DEPTH as usize + 1;
+    let (mut ends, mut end_values, mut depths) = ([0.0f32; SLOTS], [0.0f32; SLOTS], [0u8; SLOTS]);
+    (ends[0], end_values[0]) = (t2, s2);
+    let (mut a, mut sa) = (t1, s1);
     let mut len = 1;
     let mut spent = 0;
     while len > 0 {
         len -= 1;
-        let (a, sa, b, sb, depth) = stack[len];
+        let (b, sb, depth) = (ends[len], end_values[len], depths[len]);
         if covered(sa, sb, b - a) {
+            (a, sa) = (b, sb);
             continue;
         }
         if sa <= level || depth == MAX_DEPTH || spent == CERTIFY_MAX_EVALUATIONS {
@@ -775,8 +780,9 @@ fn certify(
         let m = 0.5 * (a + b);
         let sm = f.lower_bound(m);
         spent += 1;
-        stack[len] = (m, sm, b, sb, depth + 1);
-        stack[len + 1] = (a, sa, m, sm, depth + 1);
+        // [m, b] after [a, m]: the parent's slot, then the next.
+        depths[len] = depth + 1;
+        (ends[len + 1], end_values[len + 1], depths[len + 1]) = (m, sm, depth + 1);
         len += 2;
     }
     *evaluations += spent;
