@@ -562,12 +562,20 @@ impl<'a> SeparationFunction<'a> {
             SeparationKind::FaceA if ma.w == 0.0 => {
                 let n = xf_a1.q.rotate(self.axis);
                 let face = n.dot(xf_a1.q.rotate(self.local_point - ma.local_center));
-                (n, face + self.face_excess, reach(self.proxy_b, mb, xf_b1, -n))
+                (
+                    n,
+                    face + self.face_excess,
+                    reach(self.proxy_b, mb, xf_b1, -n),
+                )
             }
             SeparationKind::FaceB if mb.w == 0.0 => {
                 let n = -xf_b1.q.rotate(self.axis);
                 let face = -n.dot(xf_b1.q.rotate(self.local_point - mb.local_center));
-                (n, reach(self.proxy_a, ma, xf_a1, n), face + self.face_excess)
+                (
+                    n,
+                    reach(self.proxy_a, ma, xf_a1, n),
+                    face + self.face_excess,
+                )
             }
             _ => return f32::NEG_INFINITY,
         };
@@ -1439,10 +1447,16 @@ mod tests {
                 };
                 let d = shape_distance(&at, &mut SimplexCache::default()).distance;
                 // 1e-5 m: the f32 rounding of poses and supports a few metres from the origin.
-                assert!(lower <= d + 1e-5, "bound {lower} above the distance {d} at {t}");
+                assert!(
+                    lower <= d + 1e-5,
+                    "bound {lower} above the distance {d} at {t}"
+                );
             }
         }
-        assert!(applies > 1_000 && proves > 200, "applies {applies}, proves {proves}");
+        assert!(
+            applies > 1_000 && proves > 200,
+            "applies {applies}, proves {proves}"
+        );
     }
 
     /// A rod spinning three turns beside a wall, its reach clear of the wall by twice the slop
