@@ -888,20 +888,15 @@ pub fn time_of_impact(input: &ToiInput) -> ToiOutput {
     if let Err(failure) = validate(input) {
         return ToiOutput::failed(failure, 0.0);
     }
-    let (sa, sb) = (&input.sweep_a, &input.sweep_b);
-    let reach_a = input.proxy_a.max_distance_from(sa.local_center);
-    let reach_b = input.proxy_b.max_distance_from(sb.local_center);
-    // The discs need no rotation: the sine and cosine of the start angles wait for the pairs
-    // they cannot settle.
-    if discs_apart(input, reach_a + reach_b) {
+    let frame_a = BodyFrame::new(&input.sweep_a, &input.proxy_a);
+    let frame_b = BodyFrame::new(&input.sweep_b, &input.proxy_b);
+    if discs_apart(input, frame_a.reach + frame_b.reach) {
         return ToiOutput {
             state: ToiState::Separated,
             fraction: input.max_fraction,
             ..ToiOutput::failed(ToiFailure::IterationLimit, 0.0)
         };
     }
-    let frame_a = BodyFrame::with_reach(sa, reach_a);
-    let frame_b = BodyFrame::with_reach(sb, reach_b);
     search(input, frame_a, frame_b, 0.0, Screen::Centres)
 }
 
