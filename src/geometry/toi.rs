@@ -544,7 +544,7 @@ impl<'a> SeparationFunction<'a> {
     fn swept_disc_lower(&self, t1: f32, t2: f32, xf_a1: Pose, xf_b1: Pose) -> f32 {
         let (ma, mb) = (self.motion_a, self.motion_b);
         // How far a body's core reaches from its centre along `dir`.
-        let reach = |proxy: &ShapeProxy, motion: &Motion, xf: Pose, dir: Vec2| {
+        let extent = |proxy: &ShapeProxy, motion: &Motion, xf: Pose, dir: Vec2| {
             if motion.w == 0.0 {
                 let local = xf.q.inv_rotate(dir);
                 let top = proxy.point(proxy.support(local));
@@ -556,8 +556,8 @@ impl<'a> SeparationFunction<'a> {
         let (n, rho_a, rho_b) = match self.kind {
             SeparationKind::Points => (
                 self.axis,
-                reach(self.proxy_a, ma, xf_a1, self.axis),
-                reach(self.proxy_b, mb, xf_b1, -self.axis),
+                extent(self.proxy_a, ma, xf_a1, self.axis),
+                extent(self.proxy_b, mb, xf_b1, -self.axis),
             ),
             SeparationKind::FaceA if ma.w == 0.0 => {
                 let n = xf_a1.q.rotate(self.axis);
@@ -565,7 +565,7 @@ impl<'a> SeparationFunction<'a> {
                 (
                     n,
                     face + self.face_excess,
-                    reach(self.proxy_b, mb, xf_b1, -n),
+                    extent(self.proxy_b, mb, xf_b1, -n),
                 )
             }
             SeparationKind::FaceB if mb.w == 0.0 => {
@@ -573,7 +573,7 @@ impl<'a> SeparationFunction<'a> {
                 let face = -n.dot(xf_b1.q.rotate(self.local_point - mb.local_center));
                 (
                     n,
-                    reach(self.proxy_a, ma, xf_a1, n),
+                    extent(self.proxy_a, ma, xf_a1, n),
                     face + self.face_excess,
                 )
             }
