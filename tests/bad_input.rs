@@ -12,9 +12,9 @@ use std::panic::{AssertUnwindSafe, catch_unwind};
 
 use bevy_ccd::geometry::{
     Capsule, Circle, DistanceInput, Polygon, Pose, Rot, Segment, Shape, ShapeError, ShapeProxy,
-    SimplexCache, Sweep, ToiConfig, ToiFailure, ToiInput, ToiOutput, ToiState,
+    SimplexCache, Sweep, ToiBody, ToiConfig, ToiFailure, ToiInput, ToiOutput, ToiState,
     constants::{LINEAR_SLOP, MAX_POLYGON_VERTICES, MAX_WORLD_COORDINATE, MIN_SHAPE_SIZE},
-    shape_distance, time_of_impact,
+    shape_distance, time_of_impact, time_of_impact_prepared,
 };
 use bevy_ccd::prelude::Collider;
 use bevy_ccd::testing::SceneRng;
@@ -1292,6 +1292,8 @@ fn fuzz_time_of_impact_never_panics() {
     let mut rng = SceneRng::new(0xF022);
     let fallback = Shape::from(Circle::new(0.3).unwrap()).proxy();
     let mut states = [0usize; 4];
+    // Queries the prepared path answered (bodies accepted) and bodies it refused.
+    let mut prepared = [0usize; 2];
     let mut panics = Vec::new();
     for case in 0..4000 {
         let proxy_a = garbage_proxy(&mut rng).unwrap_or(fallback);
@@ -1323,6 +1325,9 @@ fn fuzz_time_of_impact_never_panics() {
                 continue;
             }
         };
+        let [compared, refused] = check_prepared_agrees(&input, &out, case);
+        prepared[0] += compared;
+        prepared[1] += refused;
         let t_max = input.max_fraction;
         let range_ok = t_max.is_finite() && (0.0..=1.0).contains(&t_max);
         match out.state {
@@ -1365,6 +1370,38 @@ fn fuzz_time_of_impact_never_panics() {
         states[0] > 50 && states[1] > 50 && states[3] > 50,
         "states hit/sep/ovl/failed: {states:?}"
     );
+    assert!(
+        prepared[0] > 200 && prepared[1] > 2000,
+        "prepared compared / refused: {prepared:?}"
+    );
+}
+
+/// `time_of_impact_prepared` on bodies made by `ToiBody::new` agrees with `time_of_impact`:
+/// the same output bit for bit when both bodies are accepted; when one is refused, its error
+/// is the plain query's failure (unless a bad setting, checked first there, decides it).
+/// Returns which: `[compared, refused]`.
+fn check_prepared_agrees(input: &ToiInput, out: &ToiOutput, case: usize) -> [usize; 2] {
+    let a = ToiBody::new(input.proxy_a, input.sweep_a);
+    let b = ToiBody::new(input.proxy_b, input.sweep_b);
+    let settings_ok = input.config.linear_slop.is_finite()
+        && input.config.linear_slop > 0.0
+        && (0.0..=1.0).contains(&input.max_fraction)
+        && input.config.target_separation.is_none_or(f32::is_finite);
+    match (&a, &b) {
+        (Ok(a), Ok(b)) => {
+            let prepared = time_of_impact_prepared(a, b, input.max_fraction, &input.config);
+            assert_eq!(&prepared, out, "case {case}: prepared != plain\n{input:?}");
+            [1, 0]
+        }
+        (Err(e), _) | (Ok(_), Err(e)) => {
+            if settings_ok {
+                assert_eq!(out.state, ToiState::Failed(*e), "case {case}: {input:?}");
+            } else {
+                assert!(matches!(out.state, ToiState::Failed(_)), "case {case}");
+            }
+            [0, 1]
+        }
+    }
 }
 
 #[test]

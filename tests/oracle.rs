@@ -1,11 +1,12 @@
 //! Every shared oracle case through `time_of_impact`: zero misses, late hits, ghost hits and
-//! failures, and every hit within the tolerance band of the target separation.
+//! failures, and every hit within the tolerance band of the target separation; and through
+//! `time_of_impact_prepared`, with the same answer bit for bit.
 
 mod support;
 
 use std::collections::BTreeMap;
 
-use bevy_ccd::geometry::{ToiState, time_of_impact};
+use bevy_ccd::geometry::{ToiBody, ToiState, time_of_impact, time_of_impact_prepared};
 use support::oracle::{EPS, SLOP, Verdict, load_cases, score};
 
 #[test]
@@ -21,7 +22,17 @@ fn oracle_cases_all_correct() {
     let mut max_hit_error: f64 = 0.0;
     let mut worst_iterations = 0;
     for case in &cases {
-        let out = time_of_impact(&case.input());
+        let input = case.input();
+        let out = time_of_impact(&input);
+        let a = ToiBody::new(input.proxy_a, input.sweep_a).expect("the cases are valid");
+        let b = ToiBody::new(input.proxy_b, input.sweep_b).expect("the cases are valid");
+        let prepared = time_of_impact_prepared(&a, &b, input.max_fraction, &input.config);
+        if prepared != out {
+            bad.push(format!(
+                "{} prepared {prepared:?} != plain {out:?}",
+                case.id
+            ));
+        }
         let (verdict, d) = score(case, &out);
         *tally.entry((case.family.clone(), verdict)).or_default() += 1;
         worst_iterations = worst_iterations.max(out.iterations);

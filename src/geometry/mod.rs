@@ -48,4 +48,7 @@ pub use ray::ray_entry;
 pub use shape::{Aabb, Capsule, Circle, MassProperties, Polygon, Segment, Shape, ShapeError};
 pub(crate) use static_set::{StaticItem, StaticSet};
 pub use sweep::Sweep;
-pub use toi::{ToiConfig, ToiFailure, ToiInput, ToiOutput, ToiState, time_of_impact};
+pub use toi::{
+    ToiBody, ToiConfig, ToiFailure, ToiInput, ToiOutput, ToiState, time_of_impact,
+    time_of_impact_prepared,
+};

@@ -816,51 +816,66 @@ fn all_in_bounds(sweep: &Sweep, proxy: &ShapeProxy) -> bool {
 /// Checks the input: a branch-light test that valid input passes, and the detailed checks
 /// (which say what is wrong) only when it fails.
 fn validate(input: &ToiInput) -> Result<(), ToiFailure> {
-    let c = &input.config;
-    let body_ok = |sweep: &Sweep, proxy: &ShapeProxy| {
-        (proxy.radius >= 0.0)
-            & (1..=MAX_POLYGON_VERTICES).contains(&proxy.count())
-            & all_in_bounds(sweep, proxy)
-    };
-    let valid = c.linear_slop.is_finite()
-        & (c.linear_slop > 0.0)
-        & (0.0..=1.0).contains(&input.max_fraction)
-        & c.target_separation.is_none_or(f32::is_finite)
+    let valid = settings_ok(input.max_fraction, &input.config)
         & body_ok(&input.sweep_a, &input.proxy_a)
         & body_ok(&input.sweep_b, &input.proxy_b);
     if valid { Ok(()) } else { diagnose(input) }
 }
 
-/// The detailed checks of [`validate`], in the order that decides which failure is reported.
+/// Whether the query's settings are valid: [`diagnose_settings`] says what is wrong if not.
+#[inline]
+fn settings_ok(max_fraction: f32, config: &ToiConfig) -> bool {
+    config.linear_slop.is_finite()
+        & (config.linear_slop > 0.0)
+        & (0.0..=1.0).contains(&max_fraction)
+        & config.target_separation.is_none_or(f32::is_finite)
+}
+
+/// Whether a body is valid: [`diagnose_body`] says what is wrong if not.
+#[inline]
+fn body_ok(sweep: &Sweep, proxy: &ShapeProxy) -> bool {
+    (proxy.radius >= 0.0)
+        & (1..=MAX_POLYGON_VERTICES).contains(&proxy.count())
+        & all_in_bounds(sweep, proxy)
+}
+
+/// The detailed checks of [`validate`], in the order that decides which failure is reported:
+/// the settings, then A, then B.
 fn diagnose(input: &ToiInput) -> Result<(), ToiFailure> {
-    let slop = input.config.linear_slop;
-    let t_max = input.max_fraction;
-    let target_ok = input.config.target_separation.is_none_or(f32::is_finite);
-    if !slop.is_finite() || !t_max.is_finite() || !target_ok {
+    diagnose_settings(input.max_fraction, &input.config)?;
+    diagnose_body(&input.sweep_a, &input.proxy_a)?;
+    diagnose_body(&input.sweep_b, &input.proxy_b)
+}
+
+/// What is wrong with the settings, if anything.
+fn diagnose_settings(max_fraction: f32, config: &ToiConfig) -> Result<(), ToiFailure> {
+    let slop = config.linear_slop;
+    let target_ok = config.target_separation.is_none_or(f32::is_finite);
+    if !slop.is_finite() || !max_fraction.is_finite() || !target_ok {
         return Err(ToiFailure::NonFinite);
     }
-    if slop <= 0.0 || !(0.0..=1.0).contains(&t_max) {
+    if slop <= 0.0 || !(0.0..=1.0).contains(&max_fraction) {
         return Err(ToiFailure::InvalidInput);
     }
-    for (sweep, proxy) in [
-        (&input.sweep_a, &input.proxy_a),
-        (&input.sweep_b, &input.proxy_b),
-    ] {
-        if !sweep.is_finite() || !proxy.is_finite() {
-            return Err(ToiFailure::NonFinite);
-        }
-        if proxy.radius < 0.0 || proxy.count() == 0 || proxy.count() > MAX_POLYGON_VERTICES {
-            return Err(ToiFailure::InvalidInput);
-        }
-        let big = [sweep.c0, sweep.c1, sweep.local_center]
-            .iter()
-            .map(|v| v.abs().max_element())
-            .chain(proxy.points().iter().map(|p| p.abs().max_element()))
-            .chain([proxy.radius, sweep.a0.abs(), sweep.a1.abs()])
-            .fold(0.0, f32::max);
-        if big > MAX_WORLD_COORDINATE {
-            return Err(ToiFailure::CoordinatesTooLarge);
-        }
+    Ok(())
+}
+
+/// What is wrong with a body, if anything.
+fn diagnose_body(sweep: &Sweep, proxy: &ShapeProxy) -> Result<(), ToiFailure> {
+    if !sweep.is_finite() || !proxy.is_finite() {
+        return Err(ToiFailure::NonFinite);
+    }
+    if proxy.radius < 0.0 || proxy.count() == 0 || proxy.count() > MAX_POLYGON_VERTICES {
+        return Err(ToiFailure::InvalidInput);
+    }
+    let big = [sweep.c0, sweep.c1, sweep.local_center]
+        .iter()
+        .map(|v| v.abs().max_element())
+        .chain(proxy.points().iter().map(|p| p.abs().max_element()))
+        .chain([proxy.radius, sweep.a0.abs(), sweep.a1.abs()])
+        .fold(0.0, f32::max);
+    if big > MAX_WORLD_COORDINATE {
+        return Err(ToiFailure::CoordinatesTooLarge);
     }
     Ok(())
 }
@@ -888,16 +903,138 @@ pub fn time_of_impact(input: &ToiInput) -> ToiOutput {
     if let Err(failure) = validate(input) {
         return ToiOutput::failed(failure, 0.0);
     }
-    let frame_a = BodyFrame::new(&input.sweep_a, &input.proxy_a);
-    let frame_b = BodyFrame::new(&input.sweep_b, &input.proxy_b);
-    if discs_apart(input, frame_a.reach + frame_b.reach) {
+    let a = Side::new(&input.proxy_a, &input.sweep_a);
+    let b = Side::new(&input.proxy_b, &input.sweep_b);
+    screened_search(a, b, input.max_fraction, &input.config)
+}
+
+/// [`time_of_impact`] of two prepared bodies: the same answer, bit for bit, without checking
+/// or preparing either body again (see [`ToiBody`]).
+///
+/// `max_fraction` and `config` are as in [`ToiInput`]; when they are out of range the answer
+/// is [`ToiState::Failed`], as from [`time_of_impact`].
+///
+/// ```
+/// use bevy_ccd::geometry::{
+///     Circle, Polygon, Shape, Sweep, ToiBody, ToiConfig, ToiState, time_of_impact_prepared,
+/// };
+/// use glam::Vec2;
+/// // One bullet against two walls: the bullet is checked and prepared once.
+/// let ball = Shape::from(Circle::new(0.1).unwrap()).proxy();
+/// let wall = Shape::from(Polygon::rectangle(0.005, 10.0).unwrap()).proxy();
+/// let sweep = Sweep::new(Vec2::ZERO, Vec2::ZERO, 0.0, Vec2::new(100.0, 0.0), 0.0);
+/// let bullet = ToiBody::new(ball, sweep).unwrap();
+/// let config = ToiConfig::default();
+/// for (x, state) in [(5.0, ToiState::Hit), (-5.0, ToiState::Separated)] {
+///     let wall = ToiBody::new(wall, Sweep::stationary(Vec2::ZERO, Vec2::new(x, 0.0), 0.0));
+///     let out = time_of_impact_prepared(&bullet, &wall.unwrap(), 1.0, &config);
+///     assert_eq!(out.state, state);
+/// }
+/// ```
+pub fn time_of_impact_prepared(
+    a: &ToiBody,
+    b: &ToiBody,
+    max_fraction: f32,
+    config: &ToiConfig,
+) -> ToiOutput {
+    if !settings_ok(max_fraction, config)
+        && let Err(failure) = diagnose_settings(max_fraction, config)
+    {
+        return ToiOutput::failed(failure, 0.0);
+    }
+    screened_search(a.side(), b.side(), max_fraction, config)
+}
+
+/// A body of a time-of-impact query, checked and prepared once for any number of queries:
+/// its shape, its motion, the rotation at the start of the motion (a sine and a cosine) and
+/// its reach. Box2D's `b2Sweep` and parry's `Sweep` carry their rotations precomputed the
+/// same way.
+///
+/// Its fields are private, so the prepared values always belong to the shape and motion it
+/// holds.
+///
+/// ```
+/// use bevy_ccd::geometry::{Circle, Shape, Sweep, ToiBody, ToiFailure};
+/// use glam::Vec2;
+/// let ball = Shape::from(Circle::new(0.1).unwrap()).proxy();
+/// let sweep = Sweep::new(Vec2::ZERO, Vec2::ZERO, 0.0, Vec2::new(3.0, 0.0), 0.5);
+/// let body = ToiBody::new(ball, sweep).unwrap();
+/// assert_eq!(body.sweep(), &sweep);
+/// // Bad input is refused when the body is made, with the query's failure.
+/// let bad = Sweep { c1: Vec2::new(f32::NAN, 0.0), ..sweep };
+/// assert_eq!(ToiBody::new(ball, bad).unwrap_err(), ToiFailure::NonFinite);
+/// ```
+#[derive(Clone, Copy, Debug)]
+pub struct ToiBody {
+    proxy: ShapeProxy,
+    sweep: Sweep,
+    frame: BodyFrame,
+}
+
+impl ToiBody {
+    /// Checks a body as [`time_of_impact`] does (finite, within [`MAX_WORLD_COORDINATE`], a
+    /// radius not below zero, one to [`MAX_POLYGON_VERTICES`] points) and prepares it.
+    pub fn new(proxy: ShapeProxy, sweep: Sweep) -> Result<Self, ToiFailure> {
+        if !body_ok(&sweep, &proxy) {
+            diagnose_body(&sweep, &proxy)?;
+        }
+        Ok(Self {
+            frame: BodyFrame::new(&sweep, &proxy),
+            proxy,
+            sweep,
+        })
+    }
+
+    /// The body's shape.
+    pub fn proxy(&self) -> &ShapeProxy {
+        &self.proxy
+    }
+
+    /// The body's motion over the step.
+    pub fn sweep(&self) -> &Sweep {
+        &self.sweep
+    }
+
+    fn side(&self) -> Side<'_> {
+        Side {
+            proxy: &self.proxy,
+            sweep: &self.sweep,
+            frame: self.frame,
+        }
+    }
+}
+
+/// One body of a query as the search reads it: its shape and motion, and its frame.
+#[derive(Clone, Copy)]
+struct Side<'a> {
+    proxy: &'a ShapeProxy,
+    sweep: &'a Sweep,
+    frame: BodyFrame,
+}
+
+impl<'a> Side<'a> {
+    #[inline]
+    fn new(proxy: &'a ShapeProxy, sweep: &'a Sweep) -> Self {
+        Self {
+            proxy,
+            sweep,
+            frame: BodyFrame::new(sweep, proxy),
+        }
+    }
+}
+
+/// The search of [`time_of_impact`] on checked input: bounding discs, then the search with
+/// the proof along the centres' line before its first GJK.
+#[inline]
+fn screened_search(a: Side<'_>, b: Side<'_>, t_max: f32, config: &ToiConfig) -> ToiOutput {
+    if discs_apart(a, b, t_max, config) {
         return ToiOutput {
             state: ToiState::Separated,
-            fraction: input.max_fraction,
+            fraction: t_max,
             ..ToiOutput::failed(ToiFailure::IterationLimit, 0.0)
         };
     }
-    search(input, frame_a, frame_b, 0.0, Screen::Centres)
+    search(a, b, t_max, config, 0.0, Screen::Centres)
 }
 
 /// Whether discs that hold the two shapes stay out of hit range over the whole interval,
@@ -916,27 +1053,24 @@ pub fn time_of_impact(input: &ToiInput) -> ToiOutput {
 /// length involved (in the 1-norm, which bounds the 2-norm), keeps rounding in `d0`, in both
 /// velocities and in the reaches from deciding it.
 #[inline]
-fn discs_apart(input: &ToiInput, reach: f32) -> bool {
-    let (sa, sb) = (&input.sweep_a, &input.sweep_b);
-    let (pa, pb) = (&input.proxy_a, &input.proxy_b);
+fn discs_apart(a: Side<'_>, b: Side<'_>, t_max: f32, config: &ToiConfig) -> bool {
+    let (sa, sb) = (a.sweep, b.sweep);
+    let (pa, pb) = (a.proxy, b.proxy);
+    let reach = a.frame.reach + b.frame.reach;
     let l1 = |v: Vec2| v.x.abs() + v.y.abs();
     let d0 = sb.c0 - sa.c0;
     let (va, vb) = (sa.c1 - sa.c0, sb.c1 - sb.c0);
     let dv = vb - va;
-    let slop = input.config.linear_slop;
+    let slop = config.linear_slop;
     let tolerance = separation_tolerance(slop);
     let total_radius = pa.radius + pb.radius;
-    let target_surface = input
-        .config
-        .target_separation
-        .unwrap_or(target_separation(slop));
+    let target_surface = config.target_separation.unwrap_or(target_separation(slop));
     let target = (total_radius + target_surface).max(2.0 * tolerance);
     let margin = 1.0e-5 * (l1(d0) + l1(va) + l1(vb) + reach);
     let range = reach + target + tolerance + margin;
     let range2 = range * range;
     let e = d0.dot(dv);
     let dv2 = dv.dot(dv);
-    let t_max = input.max_fraction;
     if e >= 0.0 {
         d0.dot(d0) > range2
     } else if -e >= t_max * dv2 {
@@ -963,7 +1097,17 @@ pub(crate) fn time_of_impact_framed(
     if let Err(failure) = validate(input) {
         return ToiOutput::failed(failure, 0.0);
     }
-    search(input, frame_a, frame_b, start, Screen::None)
+    let a = Side {
+        proxy: &input.proxy_a,
+        sweep: &input.sweep_a,
+        frame: frame_a,
+    };
+    let b = Side {
+        proxy: &input.proxy_b,
+        sweep: &input.sweep_b,
+        frame: frame_b,
+    };
+    search(a, b, input.max_fraction, &input.config, start, Screen::None)
 }
 
 /// Proves the pair out of the hit band on `[t1, t_max]` along one world axis, with no GJK:
@@ -1081,31 +1225,28 @@ struct Unproven {
 
 /// The bilateral advancement of [`time_of_impact_framed`] on validated input.
 fn search(
-    input: &ToiInput,
-    frame_a: BodyFrame,
-    frame_b: BodyFrame,
+    a: Side<'_>,
+    b: Side<'_>,
+    t_max: f32,
+    config: &ToiConfig,
     start: f32,
     screen: Screen,
 ) -> ToiOutput {
-    let proxy_a = &input.proxy_a;
-    let proxy_b = &input.proxy_b;
+    let proxy_a = a.proxy;
+    let proxy_b = b.proxy;
     // Work relative to A's start: far from the world origin, differences of nearby large
     // coordinates are exact in f32 (Sterbenz), so the query keeps its precision.
-    let origin = input.sweep_a.c0;
-    let t_max = input.max_fraction;
-    let mut motion_a = Motion::new(&input.sweep_a, proxy_a, origin, frame_a);
-    let mut motion_b = Motion::new(&input.sweep_b, proxy_b, origin, frame_b);
+    let origin = a.sweep.c0;
+    let mut motion_a = Motion::new(a.sweep, proxy_a, origin, a.frame);
+    let mut motion_b = Motion::new(b.sweep, proxy_b, origin, b.frame);
     let any_rotation = motion_a.w != 0.0 || motion_b.w != 0.0;
 
     let total_radius = proxy_a.radius + proxy_b.radius;
-    let slop = input.config.linear_slop;
+    let slop = config.linear_slop;
     // Targets on the core distance: the surfaces end `slop ± slop/4` apart. A lowered target
     // never asks the cores to come closer than the tolerance: GJK measures no penetration.
     let tolerance = separation_tolerance(slop);
-    let target_surface = input
-        .config
-        .target_separation
-        .unwrap_or(target_separation(slop));
+    let target_surface = config.target_separation.unwrap_or(target_separation(slop));
     let target = (total_radius + target_surface).max(2.0 * tolerance);
     // Skipped intervals must keep the surfaces at least `target - tolerance` apart: then every
     // time the advance stops at is still outside the hit band or inside it, never past it, and
@@ -1114,7 +1255,7 @@ fn search(
 
     let mut out = ToiOutput::failed(ToiFailure::IterationLimit, 0.0);
     // A start outside `[0, max_fraction]` (or NaN) is ignored: the search starts at 0.
-    let mut t1 = if start > 0.0 && start <= input.max_fraction {
+    let mut t1 = if start > 0.0 && start <= t_max {
         start
     } else {
         0.0
@@ -1544,7 +1685,8 @@ mod tests {
             let (sa, sb) = (sweep(&mut rng), sweep(&mut rng));
             let input = ToiInput::new(a, sa, b, sb);
             let (fa, fb) = (BodyFrame::new(&sa, &a), BodyFrame::new(&sb, &b));
-            if discs_apart(&input, fa.reach + fb.reach) {
+            let (side_a, side_b) = (Side::new(&a, &sa), Side::new(&b, &sb));
+            if discs_apart(side_a, side_b, 1.0, &input.config) {
                 continue;
             }
             beyond_discs += 1;
