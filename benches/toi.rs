@@ -4,8 +4,8 @@
 //!
 //! # What runs
 //!
-//! Every case goes through four implementations, built from the same JSON numbers before any
-//! timing:
+//! Every case goes through four implementations, ours in two ways, their inputs built from the
+//! same JSON numbers before any timing:
 //!
 //! - `ours`: [`bevy_ccd::geometry::time_of_impact_prepared`] on two [`ToiBody`]s built before
 //!   any timing, the *angle* model (constant angular velocity, any number of turns). The
