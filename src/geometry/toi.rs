@@ -66,8 +66,12 @@
 //! Most pairs a caller asks about pass each other at a distance, and [`time_of_impact`] proves
 //! those `Separated` before the first GJK: by bounding discs when even they stay apart (no
 //! support, no square root), else by `S` along the line between the centres of mass where they
-//! pass closest, with the certification bound over the whole interval at once (two supports a
-//! side, a sine and cosine only if the start passes). Either proof keeps every distance on
+//! pass closest: for a pair that turns, first with the swept discs above on that line, where
+//! a turning body's `ρ` is its support at the start plus the most its turn can add,
+//! `|w| (t - t1) R`, and never more than its reach `R` (a body that turns slowly keeps nearly
+//! its exact support, where the bounding discs take both reaches), then with the
+//! certification bound over the whole interval at once (two supports a side, a sine and cosine
+//! only if the start passes). Either proof keeps every distance on
 //! the interval above the hit band, so the search would find no hit either. When the line
 //! proves nothing, its supports at the start are GJK's first simplex vertex, and the search
 //! goes on as above; for a pair that does not turn, from where `S` along the line (linear then)
@@ -321,6 +325,20 @@ impl Motion {
     #[inline]
     fn center(&self, t: f32) -> Vec2 {
         self.c0 + t * self.v
+    }
+
+    /// A bound on how far the core reaches from the centre of mass along a direction fixed in
+    /// the world over an interval `span` long, given how far it reaches at the interval's
+    /// start: a turn by `w (t - t1)` moves that by at most `|w| (t - t1) R` (each piece
+    /// `n·R(θ) r` of the support changes at `|r| |w|` at most), and it never passes the reach
+    /// `R`. A body that turns slowly keeps nearly its exact extent.
+    #[inline]
+    fn extent_bound(&self, extent: f32, span: f32) -> f32 {
+        if self.w == 0.0 {
+            extent
+        } else {
+            (extent + self.w.abs() * span * self.reach).min(self.reach)
+        }
     }
 
     #[inline]
@@ -579,6 +597,35 @@ impl<'a> SeparationFunction<'a> {
             }
             _ => return f32::NEG_INFINITY,
         };
+        self.swept_gap_lower(n, rho_a, rho_b, t1, t2)
+    }
+
+    /// [`Self::swept_disc_lower`] for a points function (a world axis `n`) given both supports
+    /// along it at `t1`, A's along `n` and B's along `-n`, measured from the frames' origins:
+    /// each body's extent from its centre of mass is then known at `t1`, and its
+    /// [`Motion::extent_bound`] holds it over the interval. A body that turns slowly keeps
+    /// nearly its exact extent, where the reach alone (the bounding discs) or the
+    /// certification bound, which grows with the square of the faster body's turn, proves
+    /// nothing.
+    fn swept_support_lower(
+        &self,
+        support_a: f32,
+        support_b: f32,
+        t1: f32,
+        t2: f32,
+        xf_a1: Pose,
+        xf_b1: Pose,
+    ) -> f32 {
+        let (ma, mb, n) = (self.motion_a, self.motion_b, self.axis);
+        let rho_a = ma.extent_bound(support_a - n.dot(ma.center(t1) - xf_a1.p), t2 - t1);
+        let rho_b = mb.extent_bound(support_b + n.dot(mb.center(t1) - xf_b1.p), t2 - t1);
+        self.swept_gap_lower(n, rho_a, rho_b, t1, t2)
+    }
+
+    /// `min n·(cB(t) - cA(t)) - ρA - ρB` over `[t1, t2]`, at an end (the gap is linear in `t`):
+    /// the swept discs' bound along the world axis `n`, given the bodies' extents along it.
+    fn swept_gap_lower(&self, n: Vec2, rho_a: f32, rho_b: f32, t1: f32, t2: f32) -> f32 {
+        let (ma, mb) = (self.motion_a, self.motion_b);
         let gap = |t: f32| n.dot(mb.center(t) - ma.center(t));
         gap(t1).min(gap(t2)) - rho_a - rho_b
     }
@@ -1166,6 +1213,13 @@ fn apart_along_centres(
         let length = axis.length();
         let f = SeparationFunction::along(axis / length, proxy_a, motion_a, proxy_b, motion_b);
         let s1 = gap / length;
+        // The swept discs on the line, for a pair that turns: no pose after `t1`.
+        if turning
+            && f.swept_support_lower(reach_a / length, reach_b / length, t1, t_max, xf_a, xf_b)
+                > level
+        {
+            return Ok(());
+        }
         let bounds = f.motion_bounds(t1, t_max, xf_a, xf_b);
         // `S(t_max)` is at most the centres' gap along the axis plus both reaches, and the
         // bound grows with it: when even that cannot prove the interval (a fast turn), the
@@ -1535,25 +1589,33 @@ mod tests {
         assert!(0.01f32.min(1.0) - 0.125 < 0.0);
     }
 
-    /// The swept-disc bound lies below the core distance at every sampled time, for random
-    /// pairs, one of them turning up to three turns and the other (a third of the time) not
-    /// turning, with the separation function GJK's simplex gives at the start. It applies (is
-    /// finite) and is positive on a good share of them, so the test fails if it stops applying
-    /// as well as if it overshoots.
+    /// The swept-disc bounds lie below the core distance at every sampled time, for random
+    /// pairs, one of them turning up to three turns (half the time under a radian) and the
+    /// other (a third of the time) not turning: on the axis of the separation function GJK's
+    /// simplex gives at the start, and on the line between the centres from the supports along
+    /// it. They apply (are finite) and are positive on a good share of them, also with a slow
+    /// turn, so the test fails if they stop applying as well as if they overshoot.
     #[test]
     fn swept_disc_bound_is_below_the_distance_throughout() {
         use crate::geometry::test_support::{Rng, shape};
         let mut rng = Rng(11);
-        let (mut applies, mut proves) = (0, 0);
+        let (mut applies, mut proves, mut proves_slow) = (0, 0, 0);
         for _ in 0..4_000 {
             let (a, b) = (shape(&mut rng), shape(&mut rng));
             let still = rng.next() < 1.0 / 3.0;
+            // Half the turns are slow (under a radian), where the bound uses a turning body's
+            // support rather than its reach.
             let sweep = |rng: &mut Rng, turns: bool| {
                 let c0 = Vec2::new(rng.range(-2.0, 2.0), rng.range(-2.0, 2.0));
                 let c1 = c0 + Vec2::new(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0));
                 let a0 = rng.range(-3.2, 3.2);
                 let lc = Vec2::new(rng.range(-0.1, 0.1), rng.range(-0.1, 0.1));
-                let turn = if turns { rng.range(-19.0, 19.0) } else { 0.0 };
+                let slow = if rng.next() < 0.5 { 0.05 } else { 1.0 };
+                let turn = if turns {
+                    slow * rng.range(-19.0, 19.0)
+                } else {
+                    0.0
+                };
                 Sweep::new(lc, c0, a0, c1, a0 + turn)
             };
             let (sa, sb) = (sweep(&mut rng, !still), sweep(&mut rng, true));
@@ -1572,13 +1634,24 @@ mod tests {
             if shape_distance(&input, &mut cache).simplex_count == 3 {
                 continue;
             }
+            // GJK's axis, as the search uses the bound, and the line between the centres, as
+            // the proof before GJK does: the least of the two must hold.
             let f = SeparationFunction::new(&cache, &a, &ma, &b, &mb, xa, xb);
-            let lower = f.swept_disc_lower(0.0, 1.0, xa, xb);
-            if lower == f32::NEG_INFINITY {
+            let line = SeparationFunction::along(mb.center(0.0) - ma.center(0.0), &a, &ma, &b, &mb);
+            let (_, support_a) = support(a.points(), xa.q.inv_rotate(line.axis));
+            let (_, support_b) = support(b.points(), xb.q.inv_rotate(-line.axis));
+            let (gjk_axis, centres) = (
+                f.swept_disc_lower(0.0, 1.0, xa, xb),
+                line.swept_support_lower(support_a, support_b, 0.0, 1.0, xa, xb),
+            );
+            let lower = gjk_axis.max(centres);
+            if gjk_axis == f32::NEG_INFINITY {
                 continue;
             }
             applies += 1;
             proves += usize::from(lower > 0.0);
+            let slow = |m: &Motion| m.w != 0.0 && m.w.abs() < 2.0;
+            proves_slow += usize::from(lower > 0.0 && (slow(&ma) || slow(&mb)));
             for i in 0..=200 {
                 let t = i as f32 / 200.0;
                 let at = DistanceInput {
@@ -1595,8 +1668,8 @@ mod tests {
             }
         }
         assert!(
-            applies > 1_000 && proves > 200,
-            "applies {applies}, proves {proves}"
+            applies > 1_000 && proves > 200 && proves_slow > 100,
+            "applies {applies}, proves {proves} ({proves_slow} with a slow turn)"
         );
     }
 
@@ -1613,13 +1686,67 @@ mod tests {
         let spin = 3.0 * core::f32::consts::TAU;
         let rod_sweep = Sweep::new(Vec2::ZERO, Vec2::ZERO, 0.3, Vec2::new(0.0, 0.5), 0.3 + spin);
         let wall_sweep = Sweep::stationary(Vec2::ZERO, Vec2::new(clear, 0.0), 0.0);
-        let out = time_of_impact(&ToiInput::new(rod, rod_sweep, wall, wall_sweep));
+        let input = ToiInput::new(rod, rod_sweep, wall, wall_sweep);
+        let out = time_of_impact(&input);
         assert_eq!(out.state, ToiState::Separated);
-        assert_eq!((out.iterations, out.certify_evaluations), (1, 0), "{out:?}");
+        // Before GJK, on the line between the centres; the solver's search, which skips the
+        // proofs before GJK, on GJK's axis after one call.
+        assert_eq!((out.iterations, out.certify_evaluations), (0, 0), "{out:?}");
+        let (fa, fb) = (
+            BodyFrame::new(&rod_sweep, &rod),
+            BodyFrame::new(&wall_sweep, &wall),
+        );
+        let framed = time_of_impact_framed(&input, fa, fb, 0.0);
+        assert_eq!(framed.state, ToiState::Separated);
+        assert_eq!((framed.iterations, framed.certify_evaluations), (1, 0));
         // A slop closer, the same rod comes within the band once it points at the wall.
         let near = Sweep::stationary(Vec2::ZERO, Vec2::new(clear - 2.5 * LINEAR_SLOP, 0.0), 0.0);
         let out = time_of_impact(&ToiInput::new(rod, rod_sweep, wall, near));
         assert_eq!(out.state, ToiState::Hit, "{out:?}");
+    }
+
+    /// A box turning by 0.05 rad beside a rod spinning three turns: the box's own support along
+    /// the line between the centres, plus the most the small turn can add to it (`0.05` times
+    /// its reach), keeps the pair out of the band, where its reach (the bounding discs, or a
+    /// bound for any turn) would not. Proven `Separated` before GJK, as the search finds it.
+    #[test]
+    fn a_slowly_turning_box_keeps_its_own_support_beside_a_spinning_rod() {
+        let rod = Shape::from(Polygon::rectangle(1.0, 0.02).unwrap()).proxy();
+        let square = Shape::from(Polygon::rectangle(0.5, 0.5).unwrap()).proxy();
+        let (rod_reach, square_reach) = (
+            rod.max_distance_from(Vec2::ZERO),
+            square.max_distance_from(Vec2::ZERO),
+        );
+        // The square's extent toward the rod, 0.5, grows by at most 0.05 times its reach
+        // (0.035) during the turn: 0.04 of room above the band, none with its reach.
+        let gap = rod_reach + 0.5 + 0.05 * square_reach + 0.04;
+        assert!(gap < rod_reach + square_reach);
+        let spin = 3.0 * core::f32::consts::TAU;
+        let rod_sweep = Sweep::new(Vec2::ZERO, Vec2::ZERO, 0.3, Vec2::new(0.0, 0.5), 0.3 + spin);
+        let square_sweep = Sweep::new(
+            Vec2::ZERO,
+            Vec2::new(gap, 0.0),
+            0.0,
+            Vec2::new(gap, 0.2),
+            0.05,
+        );
+        let input = ToiInput::new(rod, rod_sweep, square, square_sweep);
+        let (side_a, side_b) = (
+            Side::new(&rod, &rod_sweep),
+            Side::new(&square, &square_sweep),
+        );
+        assert!(!discs_apart(side_a, side_b, 1.0, &input.config));
+        let out = time_of_impact(&input);
+        assert_eq!(
+            (out.state, out.iterations),
+            (ToiState::Separated, 0),
+            "{out:?}"
+        );
+        let (fa, fb) = (
+            BodyFrame::new(&rod_sweep, &rod),
+            BodyFrame::new(&square_sweep, &square),
+        );
+        assert_eq!(time_of_impact_framed(&input, fa, fb, 0.0).state, out.state);
     }
 
     /// A disc of radius 0.5 sweeping past another at rest, their centres `offset` apart at the
