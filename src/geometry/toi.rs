@@ -65,7 +65,10 @@
 //!
 //! Most pairs a caller asks about pass each other at a distance, and [`time_of_impact`] proves
 //! those `Separated` before the first GJK: by bounding discs when even they stay apart (no
-//! support, no square root), else by `S` along the line between the centres of mass where they
+//! support, no square root); for a body that turns two radians or more beside one that does
+//! not, by how far the turning body's centre stays outside a face of the still one, less its
+//! reach (a disc beside a polygon: the face is the axis, where the line between the centres
+//! runs along a long wall); else by `S` along the line between the centres of mass where they
 //! pass closest: for a pair that turns, first with the swept discs above on that line, where
 //! a turning body's `ρ` is its support at the start plus the most its turn can add,
 //! `|w| (t - t1) R`, and never more than its reach `R` (a body that turns slowly keeps nearly
@@ -1200,6 +1203,14 @@ fn apart_along_centres(
     } else {
         dv2 * d1 - e * dv
     };
+    // A body that turns two radians or more beside one that does not: a face of the still
+    // one (`reach_beside_faces`).
+    let spins = |m: &Motion| m.w.abs() * (t_max - t1) >= 2.0;
+    if ((motion_a.w == 0.0 && spins(motion_b)) || (motion_b.w == 0.0 && spins(motion_a)))
+        && reach_beside_faces(proxy_a, motion_a, proxy_b, motion_b, t1, t_max) > level
+    {
+        return Ok(());
+    }
     let (xf_a, xf_b) = (motion_a.pose(t1), motion_b.pose(t1));
     // Along `n`, A reaches `n·p_a + max (q_aᵀ n)·a` (its frame's origin `p_a`, its points `a`)
     // and B starts at `n·p_b - max (-q_bᵀ n)·b`.
@@ -1253,6 +1264,70 @@ fn apart_along_centres(
         start,
         root_iterations,
     })
+}
+
+/// A lower bound of the core distance on `[t1, t2]` between a body that turns and one that
+/// does not (`still`: A if A does not turn, else B), from a face of the still body: the turning body's core stays within
+/// its reach `R` of its centre of mass `c(t)`, so the distance is at least how far `c(t)`
+/// stays outside the still body's core, less `R`. Along any unit `n` fixed in the still
+/// body's frame (fixed in the world too: it does not turn), the core lies below its support
+/// `h = max n·p`, so that is at least `n·c(t) - h`: linear in `t`, least at an end. The
+/// axis is the outward normal of the edge the path's midpoint lies farthest outside of, for
+/// counter-clockwise hull vertices; the support is scanned all the same, as a proxy's points
+/// need not be in that order, so any edge gives a sound bound. When the turn leaves the
+/// turning body only its reach, the pair is a disc beside a polygon, and a face of the
+/// polygon is the axis to prove it on, where the line between the centres runs along a long
+/// wall. Minus infinity for a still body of one point (no edge; the bounding discs cover it).
+///
+/// Tried only for a body that turns two radians or more on the interval: its extent along any
+/// fixed axis can then reach anywhere in `[-R, R]` ([`Motion::extent_bound`] is `R`), so its
+/// reach is all there is to know of it, and the axis is the still body's to choose.
+// Never inlined: the search's common paths never call it, and inlined it made them slower.
+#[inline(never)]
+fn reach_beside_faces(
+    proxy_a: &ShapeProxy,
+    motion_a: &Motion,
+    proxy_b: &ShapeProxy,
+    motion_b: &Motion,
+    t1: f32,
+    t2: f32,
+) -> f32 {
+    let (still_proxy, still, turning) = if motion_a.w == 0.0 {
+        (proxy_a, motion_a, motion_b)
+    } else {
+        (proxy_b, motion_b, motion_a)
+    };
+    let points = still_proxy.points();
+    if points.len() < 2 {
+        return f32::NEG_INFINITY;
+    }
+    // The turning body's centre in the still body's frame (rotation `q0`, origin
+    // `c - q0 lc`): `q0ᵀ (c_turning - c_still) + lc`.
+    let local =
+        |t: f32| still.q0.inv_rotate(turning.center(t) - still.center(t)) + still.local_center;
+    let (c1, c2) = (local(t1), local(t2));
+    let mid = 0.5 * (c1 + c2);
+    // The edge `e = q - p` with the largest `o / |e|`, `o = cross(mid - p, e)` the midpoint's
+    // height outside it times `|e|` (the right perpendicular of a counter-clockwise edge points
+    // out; a segment's two "edges" are its two sides): among `o > 0`, compared as
+    // `o² |e_best|² > o_best² |e|²`, with no square root. None outside: the path's midpoint is
+    // inside the core, and no face can prove anything.
+    let (mut best, mut best_len2, mut edge) = (0.0f32, 1.0f32, Vec2::ZERO);
+    let mut p = points[points.len() - 1];
+    for &q in points {
+        let e = q - p;
+        let (o, len2) = (cross(mid - p, e), e.length_squared());
+        if o > 0.0 && o * o * best_len2 > best * best * len2 {
+            (best, best_len2, edge) = (o, len2, e);
+        }
+        p = q;
+    }
+    if best == 0.0 {
+        return f32::NEG_INFINITY;
+    }
+    let normal = right_perp(edge) / best_len2.sqrt();
+    let (_, top) = support(points, normal);
+    normal.dot(c1).min(normal.dot(c2)) - top - turning.reach
 }
 
 /// Which proof of separation [`search`] tries before its first GJK.
@@ -1532,7 +1607,7 @@ fn search(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geometry::{Polygon, Shape};
+    use crate::geometry::{Capsule, Polygon, Shape};
 
     /// `MotionBounds::lower` never exceeds the least value of a minimum of smooth pieces with
     /// `|f''| <= K` (sinusoids plus lines, as turning bodies give), on dense samples; and it
@@ -1674,9 +1749,10 @@ mod tests {
     }
 
     /// A rod spinning three turns beside a wall, its reach clear of the wall by twice the slop
-    /// plus the band: `Separated` after one GJK, with no bisection of the turn. The
-    /// certification bound alone needs bisection here, as the rod's ends sweep at 19 m per
-    /// step.
+    /// plus the band: `Separated` with no bisection of the turn, before GJK, and in the
+    /// solver's search (no proofs before GJK) after one GJK, by the swept disc on its axis.
+    /// The certification bound alone needs bisection here, as the rod's ends sweep at 19 m
+    /// per step.
     #[test]
     fn a_rod_spinning_beside_a_wall_is_proven_apart_by_its_swept_disc() {
         let rod = Shape::from(Polygon::rectangle(1.0, 0.02).unwrap()).proxy();
@@ -1689,8 +1765,8 @@ mod tests {
         let input = ToiInput::new(rod, rod_sweep, wall, wall_sweep);
         let out = time_of_impact(&input);
         assert_eq!(out.state, ToiState::Separated);
-        // Before GJK, on the line between the centres; the solver's search, which skips the
-        // proofs before GJK, on GJK's axis after one call.
+        // Before GJK, by the wall's face; the solver's search, which skips the proofs before
+        // GJK, on GJK's axis after one call.
         assert_eq!((out.iterations, out.certify_evaluations), (0, 0), "{out:?}");
         let (fa, fb) = (
             BodyFrame::new(&rod_sweep, &rod),
@@ -1747,6 +1823,124 @@ mod tests {
             BodyFrame::new(&square_sweep, &square),
         );
         assert_eq!(time_of_impact_framed(&input, fa, fb, 0.0).state, out.state);
+    }
+
+    /// The bound from a face of a still body lies below the core distance at every sampled
+    /// time, for random pairs of a body that does not turn (its points reversed, clockwise,
+    /// half the time: the bound must not lean on their order) and one that turns two to
+    /// twenty radians. It proves a good share of them, so the test fails if it stops proving
+    /// as well as if it overshoots.
+    #[test]
+    fn a_face_of_a_still_body_bounds_a_spinning_one_throughout() {
+        use crate::geometry::test_support::{Rng, shape};
+        let mut rng = Rng(13);
+        let (mut proves, mut reversed_proves) = (0, 0);
+        for _ in 0..3_000 {
+            let still = shape(&mut rng);
+            let reversed = rng.next() < 0.5;
+            let still = if reversed {
+                let mut points = still.points().to_vec();
+                points.reverse();
+                ShapeProxy::new(&points, still.radius).unwrap()
+            } else {
+                still
+            };
+            let spinner = shape(&mut rng);
+            let sweep = |rng: &mut Rng, turn: f32| {
+                let c0 = Vec2::new(rng.range(-2.0, 2.0), rng.range(-2.0, 2.0));
+                let c1 = c0 + Vec2::new(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0));
+                let a0 = rng.range(-3.2, 3.2);
+                let lc = Vec2::new(rng.range(-0.1, 0.1), rng.range(-0.1, 0.1));
+                Sweep::new(lc, c0, a0, c1, a0 + turn)
+            };
+            let turn = rng.range(2.0, 20.0) * if rng.next() < 0.5 { -1.0 } else { 1.0 };
+            let (s_still, s_spin) = (sweep(&mut rng, 0.0), sweep(&mut rng, turn));
+            // Either order: A still, or B still.
+            let (a, sa, b, sb) = if rng.next() < 0.5 {
+                (still, s_still, spinner, s_spin)
+            } else {
+                (spinner, s_spin, still, s_still)
+            };
+            let origin = sa.c0;
+            let ma = Motion::new(&sa, &a, origin, BodyFrame::new(&sa, &a));
+            let mb = Motion::new(&sb, &b, origin, BodyFrame::new(&sb, &b));
+            if ma.w != 0.0 && mb.w != 0.0 {
+                continue; // a one-point spinner at its centre of mass does not turn
+            }
+            let lower = reach_beside_faces(&a, &ma, &b, &mb, 0.0, 1.0);
+            if lower > 0.0 {
+                proves += 1;
+                reversed_proves += usize::from(reversed);
+            }
+            for i in 0..=200 {
+                let t = i as f32 / 200.0;
+                let at = DistanceInput {
+                    proxy_a: &a,
+                    proxy_b: &b,
+                    pose_a: ma.pose(t),
+                    pose_b: mb.pose(t),
+                    use_radii: false,
+                };
+                let d = shape_distance(&at, &mut SimplexCache::default()).distance;
+                // 1e-5 m: the f32 rounding of poses and supports a few metres from the origin.
+                assert!(
+                    lower <= d + 1e-5,
+                    "bound {lower} above the distance {d} at {t}"
+                );
+            }
+        }
+        assert!(
+            proves > 300 && reversed_proves > 100,
+            "proves {proves} ({reversed_proves} with reversed points)"
+        );
+    }
+
+    /// A capsule spinning three turns while it slides along a long wall, its reach clear of
+    /// the wall: the line between the centres runs along the wall, where the wall reaches
+    /// nearly to the capsule, so neither the bounding discs nor that line prove anything; the
+    /// wall's face does, before GJK. A slop closer, it is a hit.
+    #[test]
+    fn a_capsule_spinning_along_a_wall_is_proven_apart_by_the_wall_face() {
+        let capsule = Shape::from(Capsule::horizontal(0.5, 0.1).unwrap()).proxy();
+        let wall = Shape::from(Polygon::rectangle(5.0, 0.05).unwrap()).proxy();
+        let reach = capsule.max_distance_from(Vec2::ZERO);
+        // The wall's half height, the capsule's reach and radius, and the band with room.
+        let clear = 0.05 + reach + capsule.radius + 3.0 * LINEAR_SLOP;
+        let spin = 3.0 * core::f32::consts::TAU;
+        let wall_sweep = Sweep::stationary(Vec2::ZERO, Vec2::ZERO, 0.0);
+        let capsule_sweep = |height: f32| {
+            Sweep::new(
+                Vec2::ZERO,
+                Vec2::new(1.0, height),
+                0.2,
+                Vec2::new(4.0, height),
+                0.2 + spin,
+            )
+        };
+        let input = ToiInput::new(capsule, capsule_sweep(clear), wall, wall_sweep);
+        let (side_a, side_b) = (
+            Side::new(&capsule, &input.sweep_a),
+            Side::new(&wall, &wall_sweep),
+        );
+        assert!(!discs_apart(side_a, side_b, 1.0, &input.config));
+        let out = time_of_impact(&input);
+        assert_eq!(
+            (out.state, out.iterations),
+            (ToiState::Separated, 0),
+            "{out:?}"
+        );
+        let (fa, fb) = (
+            BodyFrame::new(&input.sweep_a, &capsule),
+            BodyFrame::new(&wall_sweep, &wall),
+        );
+        assert_eq!(time_of_impact_framed(&input, fa, fb, 0.0).state, out.state);
+        let near = ToiInput::new(
+            capsule,
+            capsule_sweep(clear - 2.5 * LINEAR_SLOP),
+            wall,
+            wall_sweep,
+        );
+        assert_eq!(time_of_impact(&near).state, ToiState::Hit);
     }
 
     /// A disc of radius 0.5 sweeping past another at rest, their centres `offset` apart at the
