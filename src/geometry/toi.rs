@@ -1206,7 +1206,8 @@ fn apart_along_centres(
     // A body that turns two radians or more beside one that does not: a face of the still
     // one (`reach_beside_faces`).
     let spins = |m: &Motion| m.w.abs() * (t_max - t1) >= 2.0;
-    if ((motion_a.w == 0.0 && spins(motion_b)) || (motion_b.w == 0.0 && spins(motion_a)))
+    if turning
+        && ((motion_a.w == 0.0 && spins(motion_b)) || (motion_b.w == 0.0 && spins(motion_a)))
         && reach_beside_faces(proxy_a, motion_a, proxy_b, motion_b, t1, t_max) > level
     {
         return Ok(());
