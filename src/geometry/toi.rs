@@ -1175,14 +1175,15 @@ pub(crate) fn time_of_impact_framed(
 ///
 /// Otherwise returns the supports at `t1` along the axis as GJK's first simplex vertex (in
 /// place of its cold start's pair, along the line between the frames), and the end poses if
-/// it computed them.
-#[allow(clippy::too_many_arguments)] // both bodies, the interval and the band
+/// it computed them. `(xf_a, xf_b)` are the poses at `t1`, which the search then reuses.
+#[allow(clippy::too_many_arguments)] // both bodies, their poses, the interval and the band
 fn apart_along_centres(
     proxy_a: &ShapeProxy,
     motion_a: &Motion,
     proxy_b: &ShapeProxy,
     motion_b: &Motion,
     t1: f32,
+    (xf_a, xf_b): (Pose, Pose),
     t_max: f32,
     target: f32,
     tolerance: f32,
@@ -1212,7 +1213,6 @@ fn apart_along_centres(
     {
         return Ok(());
     }
-    let (xf_a, xf_b) = (motion_a.pose(t1), motion_b.pose(t1));
     // Along `n`, A reaches `n·p_a + max (q_aᵀ n)·a` (its frame's origin `p_a`, its points `a`)
     // and B starts at `n·p_b - max (-q_bᵀ n)·b`.
     let (ia, reach_a) = support(proxy_a.points(), xf_a.q.inv_rotate(axis));
@@ -1390,6 +1390,9 @@ fn search(
     } else {
         0.0
     };
+    // The poses at `t1`, computed once for each `t1`: the early proof and the first GJK (and a
+    // retry along GJK's normal) share them.
+    let mut poses = (t1, (motion_a.pose(t1), motion_b.pose(t1)));
     let screened = match screen {
         Screen::None => Err(Unproven {
             seed: SimplexCache::default(),
@@ -1398,7 +1401,7 @@ fn search(
             root_iterations: 0,
         }),
         Screen::Centres => apart_along_centres(
-            proxy_a, &motion_a, proxy_b, &motion_b, t1, t_max, target, tolerance,
+            proxy_a, &motion_a, proxy_b, &motion_b, t1, poses.1, t_max, target, tolerance,
         ),
     };
     let mut cache = match screened {
@@ -1425,8 +1428,10 @@ fn search(
     let mut along_normal = false;
 
     loop {
-        let xf_a = motion_a.pose(t1);
-        let xf_b = motion_b.pose(t1);
+        if poses.0 != t1 {
+            poses = (t1, (motion_a.pose(t1), motion_b.pose(t1)));
+        }
+        let (xf_a, xf_b) = poses.1;
         let distance = shape_distance(
             &DistanceInput {
                 proxy_a,
