@@ -3,10 +3,10 @@
 
 use glam::Vec2;
 
-use super::gjk::{DistanceInput, SimplexCache, shape_distance};
 use super::math::Pose;
-use super::proxy::ShapeProxy;
-use super::static_set::StaticItem;
+use super::query::gjk::{DistanceInput, SimplexCache, shape_distance};
+use super::shape::proxy::ShapeProxy;
+use super::solver::static_set::StaticItem;
 use super::sweep::Sweep;
 use super::{Capsule, Circle, Polygon, Shape};
 

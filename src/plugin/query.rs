@@ -8,7 +8,7 @@ use smallvec::SmallVec;
 
 use super::workspace::CcdWorkspace;
 use super::{CcdConfig, Collider, CollisionLayers};
-use crate::geometry::cast::{
+use crate::geometry::query::cast::{
     MAX_SLIDE_CASTS, TargetHit, cast_all, cast_first, ray_all, ray_first, slide,
 };
 use crate::geometry::{CastError, ShapeProxy, Sweep};

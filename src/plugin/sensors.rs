@@ -15,7 +15,7 @@ use super::outcome::CcdError;
 use super::solve::Shared;
 use super::workspace::{BodyEntry, COMPOUND, CcdWorkspace, Lane};
 use super::{CcdConfig, Collider, CollisionLayers, StaticCollider};
-use crate::geometry::sensor::{CrossingRecord, PathPiece, sense_path, starts_inside};
+use crate::geometry::solver::sensor::{CrossingRecord, PathPiece, sense_path, starts_inside};
 use crate::geometry::{self, Aabb, Pose, StaticItem, StaticSet};
 
 /// Marks a [`StaticCollider`] as a sensor: bodies pass through it, never stopped or deflected,

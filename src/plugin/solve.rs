@@ -26,7 +26,7 @@ use super::{
     CcdConfig, CcdDiagnostics, Collider, CollisionLayers, Resolution, StaticCollider, StepPoses,
 };
 use crate::geometry::constants::MAX_SUBSTEPS;
-use crate::geometry::sensor::PathPiece;
+use crate::geometry::solver::sensor::PathPiece;
 use crate::geometry::{
     self, BodyOutcome, BodyState, CandidateHit, Compound, ShapeProxy, SolveSettings, StaticSet,
     solve_body_filtered, solve_compound_body_filtered,

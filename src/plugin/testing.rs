@@ -46,11 +46,11 @@ pub use super::level_check::{check_level_against_geometry, check_record_passes};
 /// The solver's insides, for the scene bench's split of a step into hierarchy queries, the
 /// per-body solve and the plugin's own work. Not a stable API: they change with the solver.
 pub mod solver {
-    pub use crate::geometry::body_solver::{
+    pub use crate::geometry::solver::body_solver::{
         BodyOutcome, BodyPart, BodyState, Compound, ImpactRecord, SolveSettings, solve_body,
         solve_compound_body,
     };
-    pub use crate::geometry::static_set::{StaticItem, StaticSet};
+    pub use crate::geometry::solver::static_set::{StaticItem, StaticSet};
 }
 
 /// Puts a body back at `to` as the last step's solve would have left it there: the

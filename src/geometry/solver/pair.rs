@@ -1,5 +1,5 @@
 //! The time of impact of one body against one target, as the solver asks it ([`pair_toi`]):
-//! the out-of-reach bound first ([`out_of_reach`]), then the query of [`super::toi`]
+//! the out-of-reach bound first ([`out_of_reach`]), then the query of [`crate::geometry::query::toi`]
 //! (bilateral advancement, Catto, "Continuous Collision", GDC 2013) over the interval the
 //! solver passes, and the handling of a body that starts the sweep touching or inside the
 //! target.
@@ -12,16 +12,16 @@
 
 use glam::Vec2;
 
-use super::constants::{FINEST_TOLERANCE, separation_tolerance};
-use super::cull::out_of_reach;
-use super::math::{Pose, left_perp, right_perp};
-use super::proxy::ShapeProxy;
-use super::static_set::{StaticItem, TargetFrame};
-use super::sweep::Sweep;
-use super::toi::{
+use crate::geometry::constants::{FINEST_TOLERANCE, separation_tolerance};
+use crate::geometry::math::{Pose, left_perp, right_perp};
+use crate::geometry::query::toi::{
     BodyFrame, ToiConfig, ToiFailure, ToiInput, ToiOutput, ToiState, time_of_impact,
     time_of_impact_framed,
 };
+use crate::geometry::shape::proxy::ShapeProxy;
+use crate::geometry::solver::cull::out_of_reach;
+use crate::geometry::solver::static_set::{StaticItem, TargetFrame};
+use crate::geometry::sweep::Sweep;
 
 /// A body as the solver needs it.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -6,28 +6,28 @@
 //! each body independent of the others) and writes the [`BodyOutcome`] back.
 //!
 //! Per sweep, the candidates are ordered by when the body can first reach them
-//! ([`super::cull`]), each is searched only up to the earliest hit so far ([`super::pair`]),
+//! ([`crate::geometry::solver::cull`]), each is searched only up to the earliest hit so far ([`crate::geometry::solver::pair`]),
 //! and the hit's contacts (every contact the body starts the sweep with, when it hits at 0)
-//! are responded to together, Gauss-Seidel over them ([`super::response`]). Sub-steps sweep
+//! are responded to together, Gauss-Seidel over them ([`crate::geometry::solver::response`]). Sub-steps sweep
 //! the rest of the step from the impact with the new velocity.
 
 use glam::Vec2;
 use smallvec::SmallVec;
 
-use super::constants::{
+use crate::geometry::constants::{
     CONTACT_PASSES, MAX_CONTACTS, MAX_CONTACTS_AT_ONE_POSE, MAX_SUBSTEPS, separation_tolerance,
     target_separation,
 };
-use super::cull::reach_interval;
-use super::math::{Pose, left_perp};
-pub use super::pair::BodyState;
-use super::pair::{Contact, PairOutcome, contact_patch, pair_toi};
-use super::proxy::ShapeProxy;
-use super::response::{Response, patch_response};
-use super::sensor::PathPiece;
-use super::static_set::{StaticSet, TargetRecord};
-use super::sweep::Sweep;
-use super::toi::{BodyFrame, ToiFailure};
+use crate::geometry::math::{Pose, left_perp};
+use crate::geometry::query::toi::{BodyFrame, ToiFailure};
+use crate::geometry::shape::proxy::ShapeProxy;
+use crate::geometry::solver::cull::reach_interval;
+pub use crate::geometry::solver::pair::BodyState;
+use crate::geometry::solver::pair::{Contact, PairOutcome, contact_patch, pair_toi};
+use crate::geometry::solver::response::{Response, patch_response};
+use crate::geometry::solver::sensor::PathPiece;
+use crate::geometry::solver::static_set::{StaticSet, TargetRecord};
+use crate::geometry::sweep::Sweep;
 
 /// How a body is resolved at an impact.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -128,7 +128,7 @@ pub struct BodyOutcome {
     pub failure: Option<ToiFailure>,
     /// The body was moved out along a contact's normal before it was swept: its sharp corner
     /// was a few micrometres from the target (closer than the time of impact can search from,
-    /// see [`FINEST_TOLERANCE`](super::constants::FINEST_TOLERANCE)), or repeated contacts had
+    /// see [`FINEST_TOLERANCE`](crate::geometry::constants::FINEST_TOLERANCE)), or repeated contacts had
     /// pressed it to the slop's depth. `position` is then not on the sweep given; the move is
     /// at most a few tenths of a millimetre at the default slop.
     pub nudged: bool,
@@ -794,7 +794,7 @@ fn trace(path: &mut Option<&mut Vec<PathPiece>>, sweep: &Sweep, u: f32, from: f3
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geometry::static_set::StaticItem;
+    use crate::geometry::solver::static_set::StaticItem;
     use crate::geometry::test_support::separation;
     use crate::geometry::{Capsule, Circle, Polygon, Shape, ShapeProxy};
 

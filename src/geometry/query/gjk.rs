@@ -16,9 +16,9 @@
 
 use glam::Vec2;
 
-use super::constants::{GJK_MAX_ITERATIONS, MAX_POLYGON_VERTICES};
-use super::math::{Pose, Rot, cross, left_perp, right_perp};
-use super::proxy::{ShapeProxy, support_index};
+use crate::geometry::constants::{GJK_MAX_ITERATIONS, MAX_POLYGON_VERTICES};
+use crate::geometry::math::{Pose, Rot, cross, left_perp, right_perp};
+use crate::geometry::shape::proxy::{ShapeProxy, support_index};
 
 /// The vertex indices of the last simplex, kept between queries to warm-start GJK.
 ///

@@ -4,16 +4,18 @@
 //! non-finite numbers, sizes below [`MIN_SHAPE_SIZE`], too few or too many points, collinear,
 //! non-convex or too thin outlines.
 
+pub(crate) mod proxy;
+
 use core::fmt;
 
 use glam::Vec2;
 
-use super::constants::{
+use crate::geometry::constants::{
     HULL_RELATIVE_TOLERANCE, MAX_ASPECT_RATIO, MAX_HULL_INPUT_POINTS, MAX_POLYGON_VERTICES,
     MIN_SHAPE_SIZE,
 };
-use super::math::{Pose, cross, right_perp};
-use super::proxy::ShapeProxy;
+use crate::geometry::math::{Pose, cross, right_perp};
+use proxy::ShapeProxy;
 
 /// Why a shape could not be built.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -19,13 +19,13 @@
 
 use glam::Vec2;
 
-use super::constants::{separation_tolerance, target_separation};
-use super::gjk::{DistanceInput, SimplexCache, shape_distance};
-use super::math::{Pose, left_perp};
-use super::proxy::ShapeProxy;
-use super::shape::Aabb;
-use super::static_set::{StaticItem, TargetFrame, TargetKey};
-use super::sweep::Sweep;
+use crate::geometry::constants::{separation_tolerance, target_separation};
+use crate::geometry::math::{Pose, left_perp};
+use crate::geometry::query::gjk::{DistanceInput, SimplexCache, shape_distance};
+use crate::geometry::shape::Aabb;
+use crate::geometry::shape::proxy::ShapeProxy;
+use crate::geometry::solver::static_set::{StaticItem, TargetFrame, TargetKey};
+use crate::geometry::sweep::Sweep;
 
 /// Whether the body, swept along `sweep`, provably never comes within hit range of `target`:
 /// a conservative test that spares the full time of impact for most of the candidates a swept
@@ -211,10 +211,10 @@ fn segment_box_gap(p0: Vec2, p1: Vec2, core: Aabb) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geometry::test_support::{Rng, separation, shape, target};
-    use crate::geometry::toi::{
+    use crate::geometry::query::toi::{
         BodyFrame, ToiInput, ToiState, time_of_impact, time_of_impact_framed,
     };
+    use crate::geometry::test_support::{Rng, separation, shape, target};
 
     /// The query of the body against the target over the whole step, as `pair_toi` builds it.
     fn pair_input(proxy: ShapeProxy, sweep: Sweep, target: &StaticItem, slop: f32) -> ToiInput {

@@ -10,7 +10,7 @@
 
 use glam::{DVec2, Vec2};
 
-use super::toi::ToiFailure;
+use crate::geometry::query::toi::ToiFailure;
 
 /// A body's mass, material and contact normal, checked and widened to `f64` for the response.
 ///

@@ -88,14 +88,14 @@
 
 use glam::Vec2;
 
-use super::constants::{
+use crate::geometry::constants::{
     CERTIFY_MAX_EVALUATIONS, LINEAR_SLOP, MAX_POLYGON_VERTICES, MAX_WORLD_COORDINATE,
     ROOT_MAX_ITERATIONS, TOI_MAX_ITERATIONS, separation_tolerance, target_separation,
 };
-use super::gjk::{DistanceInput, SimplexCache, shape_distance};
-use super::math::{Pose, Rot, cross, right_perp};
-use super::proxy::{ShapeProxy, support};
-use super::sweep::Sweep;
+use crate::geometry::math::{Pose, Rot, cross, right_perp};
+use crate::geometry::query::gjk::{DistanceInput, SimplexCache, shape_distance};
+use crate::geometry::shape::proxy::{ShapeProxy, support};
+use crate::geometry::sweep::Sweep;
 
 /// Settings of a time-of-impact query.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -2048,7 +2048,7 @@ mod tests {
     /// although the rod is 5.7 mm up, above the band `4.75 ± 0.125` mm.
     #[test]
     fn an_off_centre_rod_on_a_long_floor_is_not_a_failure() {
-        use crate::geometry::static_set::StaticItem;
+        use crate::geometry::solver::static_set::StaticItem;
         use crate::geometry::test_support::separation;
         let v = Vec2::new;
         let rod = ShapeProxy::new(

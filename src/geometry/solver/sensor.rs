@@ -28,10 +28,10 @@
 use glam::Vec2;
 use smallvec::SmallVec;
 
-use super::proxy::ShapeProxy;
-use super::static_set::{StaticItem, StaticSet};
-use super::sweep::Sweep;
-use super::toi::{ToiConfig, ToiInput, ToiOutput, ToiState, time_of_impact};
+use crate::geometry::query::toi::{ToiConfig, ToiInput, ToiOutput, ToiState, time_of_impact};
+use crate::geometry::shape::proxy::ShapeProxy;
+use crate::geometry::solver::static_set::{StaticItem, StaticSet};
+use crate::geometry::sweep::Sweep;
 
 /// One stretch of a body's path over a step: the sweep it travelled, and the fractions of the
 /// whole step at its two ends.
@@ -189,7 +189,7 @@ pub(crate) fn starts_inside(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geometry::static_set::StaticItem;
+    use crate::geometry::solver::static_set::StaticItem;
     use crate::geometry::{Circle, LINEAR_SLOP, Polygon, Shape};
 
     /// A 1 cm thick sensor at x = 0, 2 m tall.

@@ -1,6 +1,6 @@
 //! Where a ray enters a shape: the exact surface point of a rounded convex polygon (a
 //! [`ShapeProxy`]: the hull of its points grown by its radius), for the ray casts of
-//! [`cast`](super::cast).
+//! [`cast`](crate::geometry::query::cast).
 //!
 //! A rounded hull is the union of convex pieces: a disc at each point, a rectangle along each
 //! edge (the edge swept a radius out on both sides) and the hull itself. A ray enters a union
@@ -10,8 +10,8 @@
 
 use glam::Vec2;
 
-use super::math::Pose;
-use super::proxy::ShapeProxy;
+use crate::geometry::math::Pose;
+use crate::geometry::shape::proxy::ShapeProxy;
 
 /// The first `t` in `[0, t_max]` at which `origin + t direction` is on or in `proxy` placed at
 /// `pose`, with the outward unit normal there (world); `t = 0` and a zero normal when the ray

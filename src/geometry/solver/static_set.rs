@@ -10,12 +10,12 @@
 
 use glam::Vec2;
 
-use super::bvh::Bvh;
-use super::math::{Pose, Rot};
-use super::proxy::ShapeProxy;
-use super::shape::Aabb;
-use super::sweep::Sweep;
-use super::toi::BodyFrame;
+use crate::geometry::bvh::Bvh;
+use crate::geometry::math::{Pose, Rot};
+use crate::geometry::query::toi::BodyFrame;
+use crate::geometry::shape::Aabb;
+use crate::geometry::shape::proxy::ShapeProxy;
+use crate::geometry::sweep::Sweep;
 
 /// One static target.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -108,7 +108,7 @@ impl StaticSet {
 
     /// Per target, what the pair tests read of it (index as [`Self::items`]).
     #[inline]
-    pub(super) fn records(&self) -> &[TargetRecord] {
+    pub(in crate::geometry) fn records(&self) -> &[TargetRecord] {
         &self.records
     }
 
@@ -141,33 +141,33 @@ impl StaticSet {
 /// set is rebuilt instead of once per pair: its rotation (a sine and a cosine), its reach and
 /// the bounds of its core in its own frame.
 #[derive(Clone, Copy, Debug)]
-pub(super) struct TargetFrame {
+pub(in crate::geometry) struct TargetFrame {
     /// Its rotation and reach, as the time of impact takes them.
-    pub(super) toi: BodyFrame,
+    pub(in crate::geometry) toi: BodyFrame,
     /// Bounds of the core points (radius not included) in the target's frame.
-    pub(super) core: Aabb,
+    pub(in crate::geometry) core: Aabb,
     /// The core is exactly that box: its points are the box's corners (a rectangle in its
     /// frame, a segment along an axis, a point), so distances to it have a closed form.
-    pub(super) core_is_box: bool,
+    pub(in crate::geometry) core_is_box: bool,
 }
 
-/// What [`reach_interval`](super::cull::reach_interval) needs of a target, packed in 36 bytes
+/// What [`reach_interval`](crate::geometry::solver::cull::reach_interval) needs of a target, packed in 36 bytes
 /// (at the head of its [`TargetRecord`]): every candidate of the broad phase goes through that
 /// test and most stop there, so this is what the solve reads of most targets. With 100,000
 /// statics the targets are far apart in memory and each read of [`StaticItem`] (two cache
 /// lines) is a miss; this one line is read instead.
 #[derive(Clone, Copy, Debug)]
-pub(super) struct TargetKey {
-    pub(super) position: Vec2,
-    pub(super) rotation: Rot,
+pub(in crate::geometry) struct TargetKey {
+    pub(in crate::geometry) position: Vec2,
+    pub(in crate::geometry) rotation: Rot,
     /// Bounds of the core points in the target's frame ([`TargetFrame::core`]).
-    pub(super) core: Aabb,
+    pub(in crate::geometry) core: Aabb,
     /// The target's rounding radius (m).
-    pub(super) radius: f32,
+    pub(in crate::geometry) radius: f32,
 }
 
 impl TargetKey {
-    pub(super) fn new(item: &StaticItem, frame: &TargetFrame) -> Self {
+    pub(in crate::geometry) fn new(item: &StaticItem, frame: &TargetFrame) -> Self {
         Self {
             position: item.position,
             rotation: frame.toi.rotation(),
@@ -184,14 +184,14 @@ impl TargetKey {
 /// with 100,000 statics each line is a cache miss.
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(64))]
-pub(super) struct TargetRecord {
-    pub(super) key: TargetKey,
+pub(in crate::geometry) struct TargetRecord {
+    pub(in crate::geometry) key: TargetKey,
     /// [`BodyFrame::reach`] of the target's frame.
     reach: f32,
     /// [`TargetFrame::core_is_box`].
     core_is_box: bool,
     /// The target was removed since the set was built ([`StaticSet::disable`]): never hit.
-    pub(super) disabled: bool,
+    pub(in crate::geometry) disabled: bool,
 }
 
 // One line: a key that grew past 59 bytes would make every record two.
@@ -210,7 +210,7 @@ impl TargetRecord {
 
     /// The frame, the same values [`TargetFrame::new`] gave.
     #[inline]
-    pub(super) fn frame(&self) -> TargetFrame {
+    pub(in crate::geometry) fn frame(&self) -> TargetFrame {
         TargetFrame {
             toi: BodyFrame::from_parts(self.key.rotation, self.reach),
             core: self.key.core,
@@ -220,7 +220,7 @@ impl TargetRecord {
 }
 
 impl TargetFrame {
-    pub(super) fn new(item: &StaticItem) -> Self {
+    pub(in crate::geometry) fn new(item: &StaticItem) -> Self {
         // As `time_of_impact` sees the target: at rest at its pose, centred on its origin.
         let sweep = Sweep::stationary(Vec2::ZERO, item.position, item.angle);
         let toi = BodyFrame::new(&sweep, &item.proxy);

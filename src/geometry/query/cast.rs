@@ -11,13 +11,13 @@
 use glam::Vec2;
 use smallvec::SmallVec;
 
-use super::constants::max_world_coordinate;
-use super::math::Pose;
-use super::proxy::ShapeProxy;
-use super::ray::ray_entry;
-use super::static_set::StaticSet;
-use super::sweep::Sweep;
-use super::toi::{ToiConfig, ToiFailure, ToiInput, ToiState, time_of_impact};
+use crate::geometry::constants::max_world_coordinate;
+use crate::geometry::math::Pose;
+use crate::geometry::query::ray::ray_entry;
+use crate::geometry::query::toi::{ToiConfig, ToiFailure, ToiInput, ToiState, time_of_impact};
+use crate::geometry::shape::proxy::ShapeProxy;
+use crate::geometry::solver::static_set::StaticSet;
+use crate::geometry::sweep::Sweep;
 
 /// One target a cast reaches.
 #[derive(Clone, Copy, Debug, PartialEq)]

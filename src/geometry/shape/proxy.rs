@@ -7,9 +7,9 @@
 
 use glam::Vec2;
 
-use super::constants::MAX_POLYGON_VERTICES;
-use super::math::Pose;
-use super::shape::{Aabb, ShapeError};
+use crate::geometry::constants::MAX_POLYGON_VERTICES;
+use crate::geometry::math::Pose;
+use crate::geometry::shape::{Aabb, ShapeError};
 
 /// A convex point set plus a radius, in the shape's local frame.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -146,7 +146,7 @@ impl ShapeProxy {
     /// Without rotation it is the union of the boxes at both ends (exact for translation). With
     /// rotation every core point stays within `reach` of the centre of mass, which moves on a
     /// straight line, so the box of that segment grown by `reach + radius` holds the shape.
-    pub fn swept_aabb(&self, sweep: &super::sweep::Sweep) -> Aabb {
+    pub fn swept_aabb(&self, sweep: &crate::geometry::sweep::Sweep) -> Aabb {
         if sweep.a0 == sweep.a1 {
             self.aabb(sweep.pose_at(0.0))
                 .union(self.aabb(sweep.pose_at(1.0)))
@@ -175,7 +175,7 @@ impl ShapeProxy {
             let e = self.points[(i + 1) % n] - a;
             let len = e.length();
             if len > 0.0 {
-                inner = inner.min(super::math::cross(e, center - a).abs() / len);
+                inner = inner.min(crate::geometry::math::cross(e, center - a).abs() / len);
             }
         }
         if inner.is_finite() {

@@ -1,0 +1,10 @@
+//! The per-body solver: the targets and their hierarchy (`static_set`), the bounds that rule
+//! pairs out (`cull`), one pair's time of impact (`pair`), the contact impulse (`response`),
+//! one body's step (`body_solver`) and the sensors' crossings (`sensor`).
+
+pub(crate) mod body_solver;
+pub(crate) mod cull;
+pub(crate) mod pair;
+pub(crate) mod response;
+pub(crate) mod sensor;
+pub(crate) mod static_set;
