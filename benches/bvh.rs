@@ -25,15 +25,15 @@
 //! queries (single thread, one reused output vector).
 //!
 //! ```text
-//! CARGO_TARGET_DIR=target-bench cargo bench --bench bvh
-//! CARGO_TARGET_DIR=target-bench cargo test --benches      # smoke test
+//! cargo bench -p bevy_ccd_benches --bench bvh
+//! cargo test -p bevy_ccd_benches --benches   # smoke test
 //! ```
 
 use std::hint::black_box;
 use std::time::Duration;
 
 use bevy_ccd::geometry::{Aabb, Bvh, QUERY_GROUP};
-use bevy_ccd::testing::SceneRng;
+use bevy_ccd_fixtures::SceneRng;
 use criterion::{Criterion, criterion_group, criterion_main};
 use glam::{Vec2, Vec3A};
 use obvhs::BvhBuildParams;

@@ -4,7 +4,7 @@
 //!
 //! # The scene
 //!
-//! The seeded level of the scene bench (`bevy_ccd::testing::generate_level`, seed 1) with
+//! The seeded level of the scene bench (`bevy_ccd_fixtures::generate_level`, seed 1) with
 //! 100,000 statics: thin walls, boxes and slopes, one per 4 m cell. 1,000 casts from random
 //! points of its interior: a circle, a box or a capsule (5-60 cm) moved 1-20 m in a random
 //! direction without turning (parry's `cast_shapes` translates only), and 1,000 rays of
@@ -12,7 +12,7 @@
 //! (their first-hit fractions agree within the slop on the cases counted before timing).
 //!
 //! ```text
-//! cargo bench --bench queries
+//! cargo bench -p bevy_ccd_benches --bench queries
 //! ```
 
 use std::hint::black_box;
@@ -20,7 +20,8 @@ use std::time::Duration;
 
 use bevy_ccd::geometry::LINEAR_SLOP;
 use bevy_ccd::prelude::*;
-use bevy_ccd::testing::{LevelConfig, SceneRng, StepFixed, generate_level, headless_app};
+use bevy_ccd::testing::{StepFixed, headless_app};
+use bevy_ccd_fixtures::{LevelConfig, SceneRng, generate_level};
 use bevy_ecs::system::SystemState;
 use bevy_transform::prelude::Transform;
 use criterion::{Criterion, criterion_group, criterion_main};

@@ -1,13 +1,13 @@
-//! CCD at scale: one fixed step of the CCD phases on a seeded level (`testing::generate_level`:
-//! walls, boxes and slopes, one static per 4 m cell; bodies of every shape at 1..500 m/s with
-//! up to a turn per step), for N bodies x M statics x {Clamp, SubStep} x {1 thread, 2 threads}
-//! (2 threads: the main thread, which runs the plugin's schedules, and a compute pool of one
-//! thread, see `init_pool`), the per-phase split, the pure query/solve kernels (to isolate the
-//! plugin's own overhead), the memory kept per body, and the same scenes in Box2D v3 (`boxdd`)
-//! and Rapier (`rapier2d`) with their continuous collision on and off.
+//! CCD at scale: one fixed step of the CCD phases on a seeded level
+//! (`bevy_ccd_fixtures::generate_level`: walls, boxes and slopes, one static per 4 m cell;
+//! bodies of every shape at 1..500 m/s with up to a turn per step), for N bodies x M statics
+//! x {Clamp, SubStep} x {1 thread, 2 threads} (2 threads: the main thread, which runs the
+//! plugin's schedules, and a compute pool of one thread, see `init_pool`), the per-phase
+//! split, the memory kept per body, and the same scenes in Box2D v3 (`boxdd`) and Rapier
+//! (`rapier2d`) with their continuous collision on and off.
 //!
 //! ```text
-//! CARGO_TARGET_DIR=target-scene cargo bench --bench scene
+//! cargo bench -p bevy_ccd_benches --bench scene
 //! SCENE_QUICK=1 ...   # N in {1k, 10k} only, peers at M = 1k only
 //! SCENE_PROFILE=clamp|substep ...   # only our 10k x 1k step, 1 thread, for `perf record`
 //!                                   # (SCENE_PROFILE_N / SCENE_PROFILE_M: other sizes;
@@ -22,9 +22,8 @@
 //!
 //! The machine this runs on drifts by more than the targets' margins over minutes, so each
 //! ratio is also measured in *paired rounds* (the two sides alternate step by step for about
-//! two seconds and the medians of the two series are compared): 1 vs 2 threads, the plugin
-//! step vs its kernels, and each peer with its CCD on vs off. 1 vs 2 threads is also paired
-//! in blocks of 6 steps per side, the first of each dropped (see `paired_speedup`); at
+//! two seconds and the medians of the two series are compared): 1 vs 2 threads, and each
+//! peer with its CCD on vs off. 1 vs 2 threads is also paired in blocks of 6 steps per side, the first of each dropped (see `paired_speedup`); at
 //! 10,000 bodies in three windows minutes apart, all readings and their median reported.
 //! Ratios between two different worlds are also taken from *windows* seconds apart (steps
 //! interleaved one by one would make the two worlds evict each other's caches): ours is
@@ -50,12 +49,9 @@ use std::hint::black_box;
 use std::time::{Duration, Instant};
 
 use bevy_app::{App, FixedFirst, FixedPostUpdate};
-use bevy_ccd::geometry;
 use bevy_ccd::prelude::*;
-use bevy_ccd::testing::solver::{BodyState, SolveSettings, StaticItem, StaticSet, solve_body};
-use bevy_ccd::testing::{
-    Level, LevelConfig, generate_level, headless_app, headless_app_with, rewind, spawn_level,
-};
+use bevy_ccd::testing::{headless_app, headless_app_with, rewind};
+use bevy_ccd_fixtures::{Level, LevelConfig, generate_level, spawn_level};
 use bevy_ecs::message::Messages;
 use bevy_ecs::prelude::*;
 use bevy_ecs::query::QueryState;
@@ -287,95 +283,6 @@ impl Ours {
                 acc.2 + matches!(t, CcdOutcome::Error(_)) as u64,
             )
         })
-    }
-}
-
-// ---------------------------------------------------------------------------------------
-// Geometry kernels alone (no ECS): the broad-phase queries and the per-body solve.
-// ---------------------------------------------------------------------------------------
-
-struct Kernels {
-    statics: StaticSet,
-    bodies: Vec<BodyState>,
-}
-
-impl Kernels {
-    fn new(level: &Level) -> Self {
-        let mut statics = StaticSet::default();
-        statics.rebuild(level.statics.iter().map(|s| StaticItem {
-            proxy: *s.collider.proxy(),
-            position: s.position,
-            angle: s.angle,
-        }));
-        let bodies = level
-            .bodies
-            .iter()
-            .map(|b| {
-                let props = b.collider.mass_properties(1.0);
-                let (p1, a1) = b.pose_after(DT);
-                let proxy = *b.collider.proxy();
-                BodyState {
-                    proxy,
-                    local_center: props.center,
-                    mass: props.mass,
-                    inertia: props.inertia,
-                    restitution: b.restitution,
-                    friction: b.friction,
-                    sweep: geometry::Sweep::from_origins(props.center, b.position, b.angle, p1, a1),
-                    velocity: Some((b.velocity.linear, b.velocity.angular)),
-                    core_radius: 0.25 * proxy.inner_radius(props.center),
-                }
-            })
-            .collect();
-        Self { statics, bodies }
-    }
-
-    fn candidates(&self) -> Vec<Vec<u32>> {
-        self.bodies
-            .iter()
-            .map(|b| {
-                let mut out = Vec::new();
-                self.statics
-                    .candidates(&b.proxy, &b.sweep, LINEAR_SLOP, &mut out);
-                out
-            })
-            .collect()
-    }
-
-    /// Seconds for all queries (into one reused buffer).
-    fn time_queries(&self) -> f64 {
-        let mut out = Vec::new();
-        let t = Instant::now();
-        for b in &self.bodies {
-            out.clear();
-            self.statics
-                .candidates(&b.proxy, &b.sweep, LINEAR_SLOP, &mut out);
-            black_box(&out);
-        }
-        t.elapsed().as_secs_f64()
-    }
-
-    fn time_solve(&self, candidates: &[Vec<u32>], mode: Resolution) -> f64 {
-        let settings = SolveSettings {
-            mode,
-            linear_slop: LINEAR_SLOP,
-            dt: DT,
-        };
-        let mut scratch = Vec::new();
-        let mut impacts = Vec::new();
-        let t = Instant::now();
-        for (b, c) in self.bodies.iter().zip(candidates) {
-            impacts.clear();
-            black_box(solve_body(
-                b,
-                &self.statics,
-                c,
-                &settings,
-                &mut scratch,
-                &mut impacts,
-            ));
-        }
-        t.elapsed().as_secs_f64()
     }
 }
 
@@ -806,18 +713,37 @@ fn mode_name(r: Resolution) -> &'static str {
 
 /// Where the time of impact spends its time in the scene: every first-sweep pair, by class.
 fn pair_stats(lvl: &Level) {
-    use bevy_ccd::geometry::{Sweep as GSweep, ToiConfig, ToiInput, ToiState, time_of_impact};
-    let k = Kernels::new(lvl);
-    let cands = k.candidates();
+    use bevy_ccd::geometry::{
+        Bvh, Pose, Sweep as GSweep, ToiConfig, ToiInput, ToiState, time_of_impact,
+    };
+    // The first sweep's pairs as the broad phase lists them: the statics whose boxes overlap
+    // the body's swept box grown by the slop.
+    let boxes: Vec<(u32, Aabb)> = (lvl.statics.iter().enumerate())
+        .map(|(i, s)| {
+            (
+                i as u32,
+                s.collider.proxy().aabb(Pose::new(s.position, s.angle)),
+            )
+        })
+        .collect();
+    let mut bvh = Bvh::new();
+    bvh.build(&boxes);
+    let mut list = Vec::new();
     // [rotating?][hit?] -> (pairs, seconds, iterations, root iterations, certify evaluations)
     let mut acc = [[(0u64, 0.0f64, 0u64, 0u64, 0u64); 2]; 2];
-    for (b, list) in k.bodies.iter().zip(&cands) {
-        for &i in list {
-            let t = &k.statics.items()[i as usize];
+    for b in &lvl.bodies {
+        let proxy = *b.collider.proxy();
+        let (p1, a1) = b.pose_after(DT);
+        let center = b.collider.mass_properties(1.0).center;
+        let sweep = GSweep::from_origins(center, b.position, b.angle, p1, a1);
+        list.clear();
+        bvh.query(&proxy.swept_aabb(&sweep).expanded(LINEAR_SLOP), &mut list);
+        for &i in &list {
+            let t = &lvl.statics[i as usize];
             let mut input = ToiInput::new(
-                b.proxy,
-                b.sweep,
-                t.proxy,
+                proxy,
+                sweep,
+                *t.collider.proxy(),
                 GSweep::stationary(Vec2::ZERO, t.position, t.angle),
             );
             input.config = ToiConfig {
@@ -830,7 +756,7 @@ fn pair_stats(lvl: &Level) {
                 out = time_of_impact(black_box(&input));
             }
             let dt = s.elapsed().as_secs_f64() / 10.0;
-            let r = (b.sweep.a0 != b.sweep.a1) as usize;
+            let r = (sweep.a0 != sweep.a1) as usize;
             let h = matches!(out.state, ToiState::Hit) as usize;
             let a = &mut acc[r][h];
             a.0 += 1;
@@ -981,7 +907,6 @@ fn main() {
     let mut ours: BTreeMap<(usize, usize, &str, usize), f64> = BTreeMap::new();
     let mut phases_out = String::new();
     let mut memory = String::new();
-    let mut kernels_out = String::new();
     // (n, m, mode) -> (1-thread over 2-thread step time from paired rounds, rounds)
     let mut speedups: Speedups = BTreeMap::new();
     // The 10k-body scenes, kept for the later windows of their speed-up. The speed-up at 10,000
@@ -1070,54 +995,6 @@ fn main() {
                 )
                 .unwrap();
             }
-            if n == 10_000 && m == 1_000 {
-                let k = Kernels::new(&lvl);
-                let cands = k.candidates();
-                let mean_c = cands.iter().map(Vec::len).sum::<usize>() as f64 / cands.len() as f64;
-                let mut q = bench_custom(&mut c, "kernels/n10000/m1000", "queries", || {
-                    k.time_queries()
-                });
-                let q = median(&mut q);
-                for mode in modes {
-                    let rm = mode;
-                    let mut s = bench_custom(
-                        &mut c,
-                        "kernels/n10000/m1000",
-                        &format!("solve/{}", mode_name(mode)),
-                        || k.time_solve(&cands, rm),
-                    );
-                    let s = median(&mut s);
-                    let total = ours[&(n, m, mode_name(mode), 1)];
-                    // Paired: the plugin step (1 thread) and the two kernels alternate, so that
-                    // the share is not skewed by the machine drifting between measurements.
-                    app.configure(mode, false);
-                    let (mut ps, mut qs, mut ss) = (Vec::new(), Vec::new(), Vec::new());
-                    let start = Instant::now();
-                    while ps.len() < 400 && (ps.len() < 15 || start.elapsed().as_secs_f64() < 3.0) {
-                        ps.push(app.step()[0]);
-                        qs.push(k.time_queries());
-                        ss.push(k.time_solve(&cands, rm));
-                    }
-                    let rounds = ps.len();
-                    let (pp, pq, psv) = (median(&mut ps), median(&mut qs), median(&mut ss));
-                    writeln!(
-                        kernels_out,
-                        "| {} | {:.3} | {:.3} | {:.3} | {:.3} | {:.1} % | {:.3} / {:.3} / {:.3} | {:.1} % ({rounds}) | {:.1} % | {mean_c:.2} |",
-                        mode_name(mode),
-                        total * 1e3,
-                        q * 1e3,
-                        s * 1e3,
-                        (total - q - s) * 1e3,
-                        100.0 * (total - q - s) / total,
-                        pp * 1e3,
-                        pq * 1e3,
-                        psv * 1e3,
-                        100.0 * (pp - pq - psv) / pp,
-                        100.0 * (pp - alone - pq - psv) / (pp - alone),
-                    )
-                    .unwrap();
-                }
-            }
             kept.push((n, m, app));
         }
     }
@@ -1186,14 +1063,6 @@ fn main() {
     )
     .unwrap();
     out.push_str(&phases_out);
-    writeln!(
-        out,
-        "\n### Ours: geometry kernels alone vs the 1-thread step, N = 10k, M = 1k (ms)\n"
-    )
-    .unwrap();
-    writeln!(out, "| mode | plugin step (1 t) | BVH queries | solve_body (TOI + response) | rest = plugin overhead | overhead share | paired rounds: step / queries / solve | overhead share, paired (rounds) | the same, less Bevy alone | mean candidates/body |").unwrap();
-    writeln!(out, "|---|---|---|---|---|---|---|---|---|---|").unwrap();
-    out.push_str(&kernels_out);
     writeln!(out, "\n### Memory kept per CCD body (bytes)\n").unwrap();
     writeln!(
         out,
@@ -1412,6 +1281,19 @@ fn main() {
     }
     c.final_summary();
     println!("\n{out}");
-    let dir = std::env::var("CARGO_TARGET_DIR").unwrap_or_else(|_| "target".into());
-    let _ = std::fs::write(format!("{dir}/scene-summary.md"), &out);
+    // The cargo target directory: `CARGO_TARGET_DIR`, else three levels above this executable
+    // (`<target>/<profile>/deps/scene-<hash>`); cargo runs a bench in its package's directory.
+    let dir = std::env::var_os("CARGO_TARGET_DIR")
+        .map(std::path::PathBuf::from)
+        .or_else(|| {
+            Some(
+                std::env::current_exe()
+                    .ok()?
+                    .ancestors()
+                    .nth(3)?
+                    .to_path_buf(),
+            )
+        })
+        .unwrap_or_else(|| "target".into());
+    let _ = std::fs::write(dir.join("scene-summary.md"), &out);
 }

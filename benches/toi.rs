@@ -46,13 +46,13 @@
 //!
 //! **Per family** (criterion): one criterion group per family (`toi-<family>`), one function
 //! per implementation, one iteration running every case of the family; the detail tables give
-//! its median divided by the cases ("–" where criterion did not measure in this run:
-//! `cargo test --benches`, a filter that skipped the group, `--profile-time`).
+//! its median divided by the cases ("–" where criterion did not measure in this run: `cargo
+//! test -p bevy_ccd_benches --benches`, a filter that skipped the group, `--profile-time`).
 //!
 //! ```text
-//! CARGO_TARGET_DIR=target-bench cargo bench --bench toi              # full run
-//! CARGO_TARGET_DIR=target-bench cargo bench --bench toi -- --quick   # short run
-//! CARGO_TARGET_DIR=target-bench cargo test --benches                 # smoke test
+//! cargo bench -p bevy_ccd_benches --bench toi              # full run
+//! cargo bench -p bevy_ccd_benches --bench toi -- --quick   # short run
+//! cargo test -p bevy_ccd_benches --benches                 # smoke test
 //! ```
 //!
 //! The table is printed after the benchmarks (outside any timing) and written to
@@ -729,7 +729,7 @@ impl<'a> Family<'a> {
 
 /// How the binary was invoked, mirroring criterion's own reading of the arguments.
 struct RunMode {
-    /// `cargo bench` (not `cargo test --benches`, `--test`, `--list` or `--profile-time`):
+    /// `cargo bench` (not `cargo test -p bevy_ccd_benches --benches`, `--test`, `--list` or `--profile-time`):
     /// criterion measures and saves estimates.
     measuring: bool,
     /// `--list`: criterion only lists the benchmarks; no table.

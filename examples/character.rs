@@ -8,7 +8,8 @@
 
 use bevy_app::FixedUpdate;
 use bevy_ccd::prelude::*;
-use bevy_ccd::testing::{StepFixed, headless_app, spawn_corridor};
+use bevy_ccd::testing::{StepFixed, headless_app};
+use bevy_ccd_fixtures::spawn_corridor;
 use bevy_ecs::prelude::*;
 use bevy_transform::prelude::Transform;
 use core::f32::consts::FRAC_PI_2;

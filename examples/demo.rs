@@ -12,9 +12,10 @@ use std::time::Instant;
 
 use bevy_ccd::prelude::*;
 use bevy_ccd::testing::{
-    ArenaConfig, Gravity, StepFixed, arena_app, bodies_outside, deepest_penetration,
-    headless_app_with, integrate_velocity, moving_app,
+    Gravity, StepFixed, bodies_outside, deepest_penetration, headless_app_with, integrate_velocity,
+    moving_app,
 };
+use bevy_ccd_fixtures::{ArenaConfig, arena_app};
 use bevy_ecs::prelude::*;
 use bevy_transform::components::Transform;
 use glam::Quat;

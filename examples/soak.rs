@@ -2,7 +2,7 @@
 //! thrown at 1 to 2,000 m/s with up to three turns per step, gravity) with many bodies for many
 //! steps. Every step it asserts that no body left the box and none ends deeper than the slop
 //! in a static, at the end that no body stayed in place for 30 steps while moving
-//! ([`Liveness`](bevy_ccd::testing::Liveness)), and it prints the counts of impacts, sub-steps
+//! ([`Liveness`](bevy_ccd_fixtures::Liveness)), and it prints the counts of impacts, sub-steps
 //! and failed states.
 //!
 //! ```text
@@ -17,7 +17,8 @@ use bevy_ecs::prelude::*;
 
 use bevy_ccd::geometry::LINEAR_SLOP;
 use bevy_ccd::prelude::*;
-use bevy_ccd::testing::{ArenaConfig, Liveness, StepFixed, arena_app, assert_contained};
+use bevy_ccd::testing::StepFixed;
+use bevy_ccd_fixtures::{ArenaConfig, Liveness, arena_app, assert_contained};
 
 const DT: f64 = 1.0 / 60.0;
 

@@ -11,7 +11,7 @@ use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 use bevy_app::{FixedFirst, FixedPostUpdate, FixedUpdate};
 use bevy_ccd::prelude::*;
-use bevy_ccd::testing::{ArenaConfig, arena_app};
+use bevy_ccd_fixtures::{ArenaConfig, arena_app};
 use bevy_ecs::message::Messages;
 use bevy_ecs::schedule::SingleThreadedExecutor;
 

@@ -6,9 +6,8 @@
 //! bodies (a thin rod and one or two shapes at its ends, as child colliders).
 
 use bevy_ccd::prelude::*;
-use bevy_ccd::testing::{
-    ArenaConfig, Liveness, StepFixed, arena_app, bodies_outside, deepest_penetration,
-};
+use bevy_ccd::testing::{StepFixed, bodies_outside, deepest_penetration};
+use bevy_ccd_fixtures::{ArenaConfig, Liveness, arena_app};
 
 const STEPS: usize = 1000;
 const DT: f64 = 1.0 / 60.0;

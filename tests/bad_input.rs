@@ -17,7 +17,7 @@ use bevy_ccd::geometry::{
     shape_distance, time_of_impact, time_of_impact_prepared,
 };
 use bevy_ccd::prelude::Collider;
-use bevy_ccd::testing::SceneRng;
+use bevy_ccd_fixtures::SceneRng;
 use glam::Vec2;
 use support::reference::{P, SLOP, TOL, cross, norm, quadratic_first_root, sub, to_p};
 

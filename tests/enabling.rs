@@ -18,7 +18,8 @@ use std::sync::{Mutex, Once};
 
 use bevy_app::{App, FixedUpdate};
 use bevy_ccd::prelude::*;
-use bevy_ccd::testing::{Arena, bodies_outside, integrate_velocity};
+use bevy_ccd::testing::{bodies_outside, integrate_velocity};
+use bevy_ccd_fixtures::Arena;
 use bevy_ecs::prelude::*;
 use bevy_transform::prelude::Transform;
 use support::app::*;

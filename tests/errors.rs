@@ -15,7 +15,7 @@
 mod support;
 
 use bevy_ccd::prelude::*;
-use bevy_ccd::testing::{ArenaConfig, spawn_arena};
+use bevy_ccd_fixtures::{ArenaConfig, spawn_arena};
 use bevy_ecs::prelude::*;
 use bevy_transform::prelude::Transform;
 use support::app::*;

@@ -15,10 +15,8 @@ use bevy_ccd::geometry::{
     LINEAR_SLOP, MAX_WORLD_COORDINATE, SLOP_PER_COORDINATE_SPACING, max_world_coordinate,
 };
 use bevy_ccd::prelude::*;
-use bevy_ccd::testing::{
-    ArenaConfig, StepFixed, arena_app, bodies_outside, deepest_penetration, headless_app,
-    moving_app,
-};
+use bevy_ccd::testing::{StepFixed, bodies_outside, deepest_penetration, headless_app, moving_app};
+use bevy_ccd_fixtures::{ArenaConfig, arena_app};
 use bevy_transform::components::Transform;
 
 const DT: f64 = 1.0 / 60.0;

@@ -14,9 +14,8 @@ use std::sync::Mutex;
 
 use bevy_app::{App, FixedPostUpdate, FixedUpdate};
 use bevy_ccd::prelude::*;
-use bevy_ccd::testing::{
-    ArenaConfig, Gravity, StepFixed, headless_app_with, integrate_velocity, spawn_arena,
-};
+use bevy_ccd::testing::{Gravity, StepFixed, headless_app_with, integrate_velocity};
+use bevy_ccd_fixtures::{ArenaConfig, spawn_arena};
 use bevy_ecs::prelude::*;
 use bevy_ecs::system::SystemParam;
 use support::app::*;

@@ -7,7 +7,8 @@ mod support;
 
 use bevy_app::{App, FixedPostUpdate};
 use bevy_ccd::prelude::*;
-use bevy_ccd::testing::{ArenaConfig, StepFixed, arena_app, assert_contained};
+use bevy_ccd::testing::StepFixed;
+use bevy_ccd_fixtures::{ArenaConfig, arena_app, assert_contained};
 use bevy_ecs::prelude::*;
 use bevy_transform::prelude::Transform;
 use support::app::*;

@@ -8,9 +8,8 @@
 
 use bevy_ccd::geometry::LINEAR_SLOP;
 use bevy_ccd::prelude::*;
-use bevy_ccd::testing::{
-    ArenaConfig, Liveness, StepFixed, arena_app, assert_contained, moving_app,
-};
+use bevy_ccd::testing::{StepFixed, moving_app};
+use bevy_ccd_fixtures::{ArenaConfig, Liveness, arena_app, assert_contained};
 use bevy_transform::prelude::Transform;
 
 const DT: f64 = 1.0 / 60.0;

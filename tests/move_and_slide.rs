@@ -6,7 +6,8 @@ use bevy_ccd::geometry::{
     DistanceInput, LINEAR_SLOP, Pose, ShapeProxy, SimplexCache, shape_distance,
 };
 use bevy_ccd::prelude::*;
-use bevy_ccd::testing::{StepFixed, headless_app, planar_pose, spawn_corridor};
+use bevy_ccd::testing::{StepFixed, headless_app, planar_pose};
+use bevy_ccd_fixtures::spawn_corridor;
 use bevy_ecs::prelude::*;
 use bevy_ecs::system::RunSystemOnce;
 use bevy_transform::prelude::Transform;

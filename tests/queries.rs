@@ -6,7 +6,8 @@ use bevy_ccd::geometry::{
     time_of_impact,
 };
 use bevy_ccd::prelude::*;
-use bevy_ccd::testing::{LevelConfig, SceneRng, StepFixed, generate_level, headless_app};
+use bevy_ccd::testing::{StepFixed, headless_app};
+use bevy_ccd_fixtures::{LevelConfig, SceneRng, generate_level};
 use bevy_ecs::prelude::*;
 use bevy_ecs::system::RunSystemOnce;
 use bevy_transform::prelude::Transform;

@@ -17,7 +17,8 @@ mod support;
 
 use bevy_app::{App, FixedUpdate};
 use bevy_ccd::prelude::*;
-use bevy_ccd::testing::{ArenaConfig, integrate_velocity, spawn_arena};
+use bevy_ccd::testing::integrate_velocity;
+use bevy_ccd_fixtures::{ArenaConfig, spawn_arena};
 use bevy_ecs::prelude::*;
 use bevy_transform::prelude::Transform;
 use support::app::*;

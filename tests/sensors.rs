@@ -8,7 +8,8 @@ mod support;
 
 use bevy_app::{App, FixedPostUpdate};
 use bevy_ccd::prelude::*;
-use bevy_ccd::testing::{ArenaConfig, Gravity, StepFixed, spawn_arena};
+use bevy_ccd::testing::{Gravity, StepFixed};
+use bevy_ccd_fixtures::{ArenaConfig, spawn_arena};
 use bevy_ecs::prelude::*;
 use bevy_transform::prelude::Transform;
 use support::app::*;

@@ -20,7 +20,7 @@ use bevy_ccd::geometry::{
     Circle, LINEAR_SLOP, Polygon, Segment, Shape, ShapeProxy, Sweep, ToiInput, ToiOutput, ToiState,
     time_of_impact,
 };
-use bevy_ccd::testing::SceneRng;
+use bevy_ccd_fixtures::SceneRng;
 use glam::Vec2;
 use support::reference::{
     Core, SLOP, TOL, core_distance, first_crossing, pose_at, quadratic_first_root, world_point,

@@ -34,8 +34,6 @@ pub use query::toi::{
 pub use shape::proxy::ShapeProxy;
 pub use shape::{Aabb, Capsule, Circle, MassProperties, Polygon, Segment, Shape, ShapeError};
 pub use solver::body_solver::Resolution;
-#[cfg(any(test, feature = "testing"))]
-pub(crate) use solver::body_solver::solve_body;
 pub(crate) use solver::body_solver::{
     BodyOutcome, BodyPart, BodyState, CandidateHit, Compound, ImpactRecord, SolveSettings,
     solve_body_filtered, solve_compound_body_filtered,

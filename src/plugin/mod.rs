@@ -7,8 +7,6 @@
 //! (messages); `sensors` (the sensors' hierarchy, their crossings) and `events` (the entity
 //! events of [`CcdEvents`]); `parallel` hands out the work of each.
 
-#[cfg(any(test, feature = "testing"))]
-mod arena;
 mod components;
 mod compound;
 mod config;
@@ -21,8 +19,6 @@ mod hierarchy;
 mod hooks;
 mod impacts;
 mod layers;
-#[cfg(any(test, feature = "testing"))]
-mod level_check;
 mod outcome;
 mod parallel;
 mod query;

@@ -1,8 +1,12 @@
-//! Small helpers for headless app tests: a fixed-step app, stepping it, and a bounds check.
+//! Helpers for a user's own level tests (the `testing` feature): a headless app that runs one
+//! fixed step per update, a movement system that integrates [`Velocity`], and the two checks a
+//! level test asserts: no body leaves the level ([`bodies_outside`]) and none ends inside a
+//! static ([`deepest_penetration`]).
 //!
 //! ```
 //! use bevy_ccd::prelude::*;
-//! use bevy_ccd::testing::{StepFixed, bodies_outside, headless_app};
+//! use bevy_ccd::geometry::LINEAR_SLOP;
+//! use bevy_ccd::testing::{StepFixed, bodies_outside, deepest_penetration, headless_app};
 //! use bevy_transform::prelude::Transform;
 //!
 //! let mut app = headless_app(1.0 / 60.0);
@@ -26,6 +30,8 @@
 //! app.step_fixed(10);
 //! let level = Aabb { min: Vec2::new(-10.0, 0.0), max: Vec2::new(10.0, 10.0) };
 //! assert!(bodies_outside(app.world_mut(), level).is_empty());
+//! // Resting on the floor, a slop above it at most a slop into it.
+//! assert!(deepest_penetration(app.world_mut()).0 <= LINEAR_SLOP);
 //! # let _ = ball;
 //! ```
 
@@ -35,37 +41,11 @@ use bevy_app::prelude::*;
 use bevy_ecs::prelude::*;
 use bevy_time::{Fixed, Real, Time, TimePlugin, TimeUpdateStrategy, Virtual};
 use bevy_transform::components::Transform;
-use glam::{Quat, Vec3};
+use glam::{Quat, Vec2, Vec3};
 
-pub use super::arena::{
-    Arena, ArenaConfig, Level, LevelBody, LevelConfig, LevelStatic, SceneRng, deepest_penetration,
-    generate_level, spawn_arena, spawn_level,
-};
-pub use super::level_check::{check_level_against_geometry, check_record_passes};
-
-/// The solver's insides, for the scene bench's split of a step into hierarchy queries, the
-/// per-body solve and the plugin's own work. Not a stable API: they change with the solver.
-pub mod solver {
-    pub use crate::geometry::solver::body_solver::{
-        BodyOutcome, BodyPart, BodyState, Compound, ImpactRecord, SolveSettings, solve_body,
-        solve_compound_body,
-    };
-    pub use crate::geometry::solver::static_set::{StaticItem, StaticSet};
-}
-
-/// Puts a body back at `to` as the last step's solve would have left it there: the
-/// `Transform` is written without a change flag and the body's [`StepPoses`] resolved pose
-/// with it, so that the next step takes its start from there, as in a game loop where only the
-/// movement systems move bodies. For benches that repeat one step.
-pub fn rewind(transform: &mut Mut<Transform>, poses: &mut Mut<StepPoses>, to: Transform) {
-    *transform.bypass_change_detection() = to;
-    let (position, angle) = super::components::planar_pose(&to);
-    let poses = poses.bypass_change_detection();
-    poses.resolved_position = position;
-    poses.resolved_angle = angle;
-}
-use super::{CcdConfig, CcdEnabled, CcdPlugin, Collider, StaticCollider, StepPoses, Velocity};
-use crate::geometry::{Aabb, LINEAR_SLOP};
+use super::hierarchy::pose_with;
+use super::{CcdConfig, CcdPlugin, Collider, CollisionLayers, StaticCollider, StepPoses, Velocity};
+use crate::geometry::{Aabb, DistanceInput, Pose, ShapeProxy, shape_distance};
 
 /// An app with the time and CCD plugins where every `update` runs exactly one fixed step of
 /// `timestep` seconds, whatever its length.
@@ -142,54 +122,9 @@ pub fn moving_app(timestep: f64, config: CcdConfig, gravity: glam::Vec2) -> App 
     app
 }
 
-/// A [`moving_app`] holding the arena of `arena`: the set-up of the arena tests, the demo and
-/// the soak run.
-///
-/// ```
-/// use bevy_ccd::prelude::*;
-/// use bevy_ccd::testing::{ArenaConfig, StepFixed, arena_app, assert_contained};
-///
-/// let arena = ArenaConfig { bodies: 50, ..Default::default() };
-/// let gravity = Vec2::new(0.0, -9.81);
-/// let (mut app, spawned) = arena_app(1.0 / 60.0, CcdConfig::default(), gravity, &arena);
-/// for step in 0..30 {
-///     app.step_fixed(1);
-///     assert_contained(app.world_mut(), spawned.interior, &format!("step {step}"));
-/// }
-/// ```
-pub fn arena_app(
-    timestep: f64,
-    config: CcdConfig,
-    gravity: glam::Vec2,
-    arena: &ArenaConfig,
-) -> (App, Arena) {
-    let mut app = moving_app(timestep, config, gravity);
-    let spawned = spawn_arena(app.world_mut(), arena);
-    (app, spawned)
-}
-
-/// Panics, naming `what`, when a CCD body is not inside `interior` (widened by the default
-/// linear slop) or ends deeper than that slop in a static; returns the deepest penetration (m)
-/// otherwise.
-pub fn assert_contained(world: &mut World, interior: Aabb, what: &str) -> f32 {
-    let outside = bodies_outside(world, interior.expanded(LINEAR_SLOP));
-    assert!(
-        outside.is_empty(),
-        "{what}: {} bodies left the box: {:?}",
-        outside.len(),
-        &outside[..outside.len().min(10)]
-    );
-    let (depth, pair) = deepest_penetration(world);
-    assert!(
-        depth <= LINEAR_SLOP,
-        "{what}: {pair:?} overlap {depth} m, deeper than the slop"
-    );
-    depth
-}
-
-/// The CCD bodies (entities with [`CcdEnabled`], statics excluded) one of whose colliders (its
-/// own [`Collider`](super::Collider) or a compound body's child colliders) is not entirely inside `bounds`, or
-/// whose pose is not finite.
+/// The CCD bodies (entities with [`CcdEnabled`](super::CcdEnabled), statics excluded) one of
+/// whose colliders (its own [`Collider`] or a compound body's child colliders) is not entirely
+/// inside `bounds`, or whose pose is not finite.
 pub fn bodies_outside(world: &mut World, bounds: Aabb) -> Vec<Entity> {
     let mut out: Vec<Entity> = super::compound::body_colliders(world)
         .into_iter()
@@ -203,91 +138,81 @@ pub fn bodies_outside(world: &mut World, bounds: Aabb) -> Vec<Entity> {
     out
 }
 
-/// Counts bodies that stay in place while their velocity moves them: a liveness check for
-/// level tests, the arena and the soak run.
-///
-/// After each step, [`Liveness::observe`] compares every CCD body's `Transform` with the last
-/// step's, bit for bit. A body whose pose has not changed for [`Liveness::steps`] steps in a
-/// row while its [`Velocity`] is above [`Liveness::speed`] (m/s) or [`Liveness::spin`]
-/// (rad/s) counts as frozen.
-///
-/// ```
-/// use bevy_ccd::prelude::*;
-/// use bevy_ccd::testing::{Liveness, StepFixed, headless_app, integrate_velocity};
-/// use bevy_transform::prelude::Transform;
-///
-/// let mut app = headless_app(1.0 / 60.0);
-/// app.add_systems(bevy_app::FixedUpdate, integrate_velocity);
-/// app.world_mut().spawn((
-///     Collider::circle(0.1).unwrap(),
-///     CcdEnabled::default(),
-///     Velocity { linear: Vec2::new(5.0, 0.0), angular: 0.0 },
-///     Transform::default(),
-/// ));
-/// let mut liveness = Liveness::default();
-/// for _ in 0..60 {
-///     app.step_fixed(1);
-///     liveness.observe(app.world_mut());
-/// }
-/// assert!(liveness.frozen().is_empty());
-/// ```
-#[derive(Clone, Debug)]
-pub struct Liveness {
-    /// Steps in a row without a change of pose that make a moving body frozen. The default is
-    /// 30.
-    pub steps: u32,
-    /// Speed (m/s) above which a body is moving. The default is 1.
-    pub speed: f32,
-    /// Angular speed (rad/s) above which a body is moving. The default is 1.
-    pub spin: f32,
-    /// Per body: its last pose's bits, how many steps in a row it has kept it while moving,
-    /// and the longest such run.
-    bodies: std::collections::BTreeMap<Entity, ([u32; 7], u32, u32)>,
-}
-
-impl Default for Liveness {
-    fn default() -> Self {
-        Self {
-            steps: 30,
-            speed: 1.0,
-            spin: 1.0,
-            bodies: Default::default(),
-        }
-    }
-}
-
-impl Liveness {
-    /// Records the pose of every CCD body after a step.
-    pub fn observe(&mut self, world: &mut World) {
-        let mut query = world.query_filtered::<(Entity, &Transform, &Velocity), (
-            With<CcdEnabled>,
-            Without<StaticCollider>,
-        )>();
-        for (entity, transform, velocity) in query.iter(world) {
-            let (t, q) = (transform.translation, transform.rotation);
-            let bits = [t.x, t.y, t.z, q.x, q.y, q.z, q.w].map(f32::to_bits);
-            let moving =
-                velocity.linear.length() > self.speed || velocity.angular.abs() > self.spin;
-            let entry = self.bodies.entry(entity).or_insert((bits, 0, 0));
-            entry.1 = if entry.0 == bits && moving {
-                entry.1 + 1
+/// The deepest overlap (m, positive) of any CCD body's collider (its own or a child's, with
+/// the layers of that collider) with any static its [`CollisionLayers`] let it hit, with the
+/// pair (collider entity, static); 0 when nothing overlaps. Brute force over
+/// bounding-box-overlapping pairs, independent of the plugin's broad phase.
+pub fn deepest_penetration(world: &mut World) -> (f32, Option<(Entity, Entity)>) {
+    type Item<'a> = (
+        Entity,
+        &'a Collider,
+        &'a Transform,
+        Option<&'a CollisionLayers>,
+    );
+    let mut statics = world.query_filtered::<Item, With<StaticCollider>>();
+    // At their world poses, composed through the hierarchy (a root static's is its own
+    // `Transform`'s); those without one are not in the plugin's hierarchy either.
+    let world_ref: &World = world;
+    let link = |e: Entity| {
+        let at = world_ref.get_entity(e).ok()?;
+        Some((at.get::<Transform>(), at.get::<ChildOf>()))
+    };
+    let targets: Vec<(Entity, ShapeProxy, Pose, Aabb, CollisionLayers)> = statics
+        .iter(world_ref)
+        .filter_map(|(e, c, _, l)| {
+            let planar = pose_with(e, None, link).ok()?;
+            let pose = Pose::new(planar.position, planar.angle);
+            let proxy = c.proxy().scaled(planar.scale);
+            Some((
+                e,
+                proxy,
+                pose,
+                proxy.aabb(pose),
+                l.copied().unwrap_or_default(),
+            ))
+        })
+        .collect();
+    let mut deepest = 0.0f32;
+    let mut pair = None;
+    for (_, entity, pose, body_proxy, layers) in super::compound::body_colliders(world) {
+        let collider = &body_proxy;
+        let aabb = collider.aabb(pose);
+        for (target, proxy, tpose, taabb, target_layers) in &targets {
+            if !aabb.overlaps(taabb) || !layers.interacts(*target_layers) {
+                continue;
+            }
+            // Measured about the body's origin: far from the world origin the difference of
+            // two nearby positions is exact in f32 (Sterbenz: they are within a factor of two
+            // of each other), so the measure adds no rounding of its own to the plugin's.
+            let d = shape_distance(
+                &DistanceInput {
+                    proxy_a: collider,
+                    proxy_b: proxy,
+                    pose_a: Pose {
+                        p: Vec2::ZERO,
+                        ..pose
+                    },
+                    pose_b: Pose {
+                        p: tpose.p - pose.p,
+                        ..*tpose
+                    },
+                    use_radii: true,
+                },
+                &mut Default::default(),
+            );
+            // Cores overlapping: deeper than any slop; report the body's size as the depth.
+            let depth = if d.simplex_count == 3 {
+                f32::INFINITY
             } else {
-                0
+                -d.distance
             };
-            entry.0 = bits;
-            entry.2 = entry.2.max(entry.1);
+            if depth > deepest {
+                deepest = depth;
+                pair = Some((entity, *target));
+            }
         }
     }
-
-    /// The bodies that stayed in place for [`Self::steps`] steps or more while moving, in
-    /// entity order, with the longest such run of each.
-    pub fn frozen(&self) -> Vec<(Entity, u32)> {
-        self.bodies
-            .iter()
-            .filter(|(_, (_, _, longest))| *longest >= self.steps)
-            .map(|(entity, (_, _, longest))| (*entity, *longest))
-            .collect()
-    }
+    (deepest, pair)
 }
 
 /// The position and angle the plugin reads off a `Transform` (x, y and the rotation about z),
@@ -296,41 +221,17 @@ pub fn planar_pose(transform: &Transform) -> (glam::Vec2, f32) {
     super::components::planar_pose(transform)
 }
 
-/// The corridor of the character-controller tests and example: a floor from x = 0 with two
-/// steps 10 cm high, a 45° slope up to a plateau 2 m higher, a ceiling 3 m above each floor
-/// level, and an end wall. Returns where the end wall's face is (m along x); a character
-/// starts at about `(1, 1)`.
-pub fn spawn_corridor(world: &mut World) -> f32 {
-    use core::f32::consts::FRAC_PI_4;
-    let mut block = |center: glam::Vec2, half: glam::Vec2, angle: f32| {
-        world.spawn((
-            Collider::rectangle(half.x, half.y).expect("positive sizes"),
-            StaticCollider,
-            Transform::from_xyz(center.x, center.y, 0.0)
-                .with_rotation(glam::Quat::from_rotation_z(angle)),
-        ));
-    };
-    use glam::Vec2;
-    // Floor, tops at y = 0 (x in [-1, 12]), steps up to 0.1 (from x = 6) and 0.2 (from x = 9).
-    block(Vec2::new(5.5, -0.5), Vec2::new(6.5, 0.5), 0.0);
-    block(Vec2::new(9.0, -0.45), Vec2::new(3.0, 0.55), 0.0);
-    block(Vec2::new(10.5, -0.4), Vec2::new(1.5, 0.6), 0.0);
-    // A 45° ramp from (12, 0.2) up to (14, 2.2), then the plateau to x = 24.
-    let rise = Vec2::new(2.0, 2.0);
-    block(
-        Vec2::new(12.0, 0.2) + 0.5 * rise + Vec2::new(0.25, -0.25),
-        Vec2::new(0.5 * rise.length(), 0.25 * 2f32.sqrt()),
-        FRAC_PI_4,
-    );
-    block(Vec2::new(13.0, -0.4), Vec2::new(1.0, 0.6), 0.0);
-    block(Vec2::new(19.0, 1.7), Vec2::new(5.0, 0.5), 0.0);
-    // Ceilings, undersides 3 m above the floors.
-    block(Vec2::new(6.0, 3.5), Vec2::new(7.0, 0.5), 0.0);
-    block(Vec2::new(19.0, 5.7), Vec2::new(6.0, 0.5), 0.0);
-    // Walls at both ends.
-    block(Vec2::new(-1.5, 1.5), Vec2::new(0.5, 3.0), 0.0);
-    block(Vec2::new(24.5, 3.7), Vec2::new(0.5, 3.0), 0.0);
-    24.0
+/// Puts a body back at `to` as the last step's solve would have left it there: the
+/// `Transform` is written without a change flag and the body's [`StepPoses`] resolved pose
+/// with it, so that the next step takes its start from there, as in a game loop where only the
+/// movement systems move bodies. For benches that repeat one step (it sets what the plugin
+/// keeps of a body between steps, so it can only be written here).
+pub fn rewind(transform: &mut Mut<Transform>, poses: &mut Mut<StepPoses>, to: Transform) {
+    *transform.bypass_change_detection() = to;
+    let (position, angle) = super::components::planar_pose(&to);
+    let poses = poses.bypass_change_detection();
+    poses.resolved_position = position;
+    poses.resolved_angle = angle;
 }
 
 #[cfg(test)]

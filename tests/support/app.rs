@@ -9,9 +9,8 @@
 use bevy_app::{App, FixedPostUpdate, FixedUpdate};
 use bevy_ccd::geometry::{Aabb, LINEAR_SLOP, Pose};
 use bevy_ccd::prelude::*;
-use bevy_ccd::testing::{
-    Arena, ArenaConfig, Gravity, StepFixed, headless_app, integrate_velocity, spawn_arena,
-};
+use bevy_ccd::testing::{Gravity, StepFixed, headless_app, integrate_velocity};
+use bevy_ccd_fixtures::{Arena, ArenaConfig, spawn_arena};
 use bevy_ecs::prelude::*;
 use bevy_transform::prelude::Transform;
 use glam::Vec3;

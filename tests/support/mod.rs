@@ -3,5 +3,6 @@
 #![allow(dead_code)]
 
 pub mod app;
+pub mod level_check;
 pub mod oracle;
 pub mod reference;

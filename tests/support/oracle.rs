@@ -6,7 +6,7 @@
 //! `reference.rs`, exact for convex cores, and classifies the answer as the README prescribes.
 
 use bevy_ccd::geometry::{ShapeProxy, Sweep, ToiInput, ToiOutput, ToiState};
-use bevy_ccd::testing::SceneRng;
+use bevy_ccd_fixtures::SceneRng;
 use glam::Vec2;
 use serde::Deserialize;
 
@@ -59,8 +59,8 @@ pub struct Case {
 }
 
 pub fn load_cases() -> Vec<Case> {
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/toi-cases.jsonl");
-    let text = std::fs::read_to_string(path).expect("oracle cases present in tests/data");
+    // Read at compile time, relative to this file: the benches include it from another package.
+    let text = include_str!("../data/toi-cases.jsonl");
     text.lines()
         .filter(|l| !l.trim().is_empty())
         .map(|l| serde_json::from_str(l).unwrap())

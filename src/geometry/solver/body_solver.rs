@@ -221,7 +221,7 @@ impl<F: Fn(usize, u32) -> bool> Parts for Many<F> {
 /// with the body's mass and inertia (`body`'s, the combined ones). `body.proxy` and
 /// `body.core_radius` are not used: the parts replace them (without parts, the body's own
 /// shape is its only part, as in [`solve_body`]).
-#[cfg(any(test, feature = "testing"))]
+#[cfg(test)]
 pub fn solve_compound_body(
     body: &BodyState,
     compound: Compound<'_, impl Fn(usize, u32) -> bool>,
@@ -299,7 +299,7 @@ pub(crate) fn solve_compound_body_filtered(
 /// wedged: it stays where it is, at rest.
 ///
 /// Every impact is accepted; the plugin calls [`solve_body_filtered`] with its hooks.
-#[cfg(any(test, feature = "testing"))]
+#[cfg(test)]
 pub fn solve_body(
     body: &BodyState,
     statics: &StaticSet,
