@@ -323,15 +323,18 @@ fn svg(
 ) -> String {
     let mut s = String::new();
     let size = 480.0;
+    // Each panel's drawing is clipped to its square (in the panel's frame), so that a path
+    // leaving one panel never runs across the next.
     let panel = |x0: f32, title: &str, s: &mut String| {
         let _ = write!(
             s,
-            r##"<g transform="translate({x0},0)"><rect x="0" y="0" width="{size}" height="{size}" fill="white" stroke="#888"/><text x="10" y="20" font-family="sans-serif" font-size="14">{title}</text>"##
+            r##"<g transform="translate({x0},0)"><rect x="0" y="0" width="{size}" height="{size}" fill="white" stroke="#888"/><text x="10" y="20" font-family="sans-serif" font-size="14">{title}</text><g clip-path="url(#panel)">"##
         );
     };
+    let end_panel = |s: &mut String| s.push_str("</g></g>");
     let _ = write!(
         s,
-        r##"<svg xmlns="http://www.w3.org/2000/svg" width="{}" height="{size}" viewBox="0 0 {} {size}">"##,
+        r##"<svg xmlns="http://www.w3.org/2000/svg" width="{}" height="{size}" viewBox="0 0 {} {size}"><defs><clipPath id="panel"><rect x="0" y="0" width="{size}" height="{size}"/></clipPath></defs>"##,
         4.0 * size + 30.0,
         4.0 * size + 30.0
     );
@@ -379,7 +382,7 @@ fn svg(
                 c.x, c.y
             );
         }
-        s.push_str("</g>");
+        end_panel(&mut s);
     }
     // Panel 3: arena traces with their impacts.
     let x0 = 2.0 * (size + 10.0);
@@ -412,7 +415,7 @@ fn svg(
             c.x, c.y
         );
     }
-    s.push_str("</g>");
+    end_panel(&mut s);
     // Panel 4: the level, world x in [-9, 9], y in [-3, 8].
     let x0 = 3.0 * (size + 10.0);
     panel(
@@ -450,7 +453,8 @@ fn svg(
             );
         }
     }
-    s.push_str("</g></svg>\n");
+    end_panel(&mut s);
+    s.push_str("</svg>\n");
     s
 }
 
