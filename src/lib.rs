@@ -31,6 +31,8 @@
 //! behind us to catch slow ones; a `Transform` knows the angle only modulo a turn, so several
 //! turns per step need a [`Velocity`](plugin::Velocity).
 #![warn(missing_docs)]
+// On docs.rs (nightly), each item behind a feature is labelled with it.
+#![cfg_attr(docsrs, feature(doc_cfg))]
 
 pub mod geometry;
 pub mod plugin;
