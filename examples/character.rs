@@ -3,7 +3,7 @@
 //! and stops at the end wall. Prints where it is every half second.
 //!
 //! ```text
-//! cargo run --example character
+//! cargo run --release --example character
 //! ```
 
 use bevy_app::FixedUpdate;
