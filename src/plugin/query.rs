@@ -9,7 +9,7 @@ use smallvec::SmallVec;
 use super::workspace::CcdWorkspace;
 use super::{CcdConfig, Collider, CollisionLayers};
 use crate::geometry::query::cast::{
-    MAX_SLIDE_CASTS, TargetHit, cast_all, cast_first, ray_all, ray_first, slide,
+    MAX_SLIDE_CASTS, Ray, TargetHit, cast_all, cast_first, ray_all, ray_first, slide,
 };
 use crate::geometry::{CastError, ShapeProxy, Sweep};
 
@@ -145,8 +145,11 @@ impl StaticQuery<'_> {
         self.all(collider.proxy(), sweep, filter, hits)
     }
 
-    /// The first target the ray from `origin` along `direction` (any length but zero) reaches
-    /// within `max_distance` (m), or `None`.
+    /// The first target the ray from `origin` along `direction` reaches within `max_distance`
+    /// (m), or `None`. `direction` may have any finite length but zero (1e-40 and 1e30 alike);
+    /// a zero or non-finite one is a [`CastError`]. The hit is the exact entry into the
+    /// target's surface to `f32` rounding at any range inside the coordinate limit, with a unit
+    /// normal.
     pub fn cast_ray(
         &self,
         origin: Vec2,
@@ -154,14 +157,10 @@ impl StaticQuery<'_> {
         max_distance: f32,
         filter: &CastFilter,
     ) -> Result<Option<CastHit>, CastError> {
-        let delta = ray_delta(direction, max_distance)?;
-        let hit = ray_first(
-            &self.workspace.statics,
-            origin,
-            delta,
-            self.config.linear_slop,
-            |index| self.accepts(index, filter),
-        )?;
+        let ray = Ray::new(origin, direction, max_distance, self.config.linear_slop)?;
+        let hit = ray_first(&self.workspace.statics, &ray, |index| {
+            self.accepts(index, filter)
+        });
         Ok(hit.map(|hit| self.hit(hit)))
     }
 
@@ -175,16 +174,14 @@ impl StaticQuery<'_> {
         filter: &CastFilter,
         hits: &mut Vec<CastHit>,
     ) -> Result<(), CastError> {
-        let delta = ray_delta(direction, max_distance)?;
+        let ray = Ray::new(origin, direction, max_distance, self.config.linear_slop)?;
         let mut found = Vec::new();
         ray_all(
             &self.workspace.statics,
-            origin,
-            delta,
-            self.config.linear_slop,
+            &ray,
             |index| self.accepts(index, filter),
             &mut found,
-        )?;
+        );
         hits.extend(found.into_iter().map(|hit| self.hit(hit)));
         Ok(())
     }
@@ -316,16 +313,4 @@ pub struct Slide {
 fn shape_sweep(collider: &Collider, from: (Vec2, f32), to: (Vec2, f32)) -> Sweep {
     let center = collider.mass_properties(1.0).center;
     Sweep::from_origins(center, from.0, from.1, to.0, to.1)
-}
-
-/// A ray's whole length as a vector: `max_distance` along `direction`.
-fn ray_delta(direction: Vec2, max_distance: f32) -> Result<Vec2, CastError> {
-    if !direction.is_finite() || !max_distance.is_finite() {
-        return Err(CastError::NonFinite);
-    }
-    let unit = direction.try_normalize().ok_or(CastError::ZeroLength)?;
-    if max_distance <= 0.0 {
-        return Err(CastError::ZeroLength);
-    }
-    Ok(unit * max_distance)
 }

@@ -8,12 +8,12 @@
 //! far, so a first-hit cast through a large level tests the few targets along the way. A hit
 //! is where the surfaces come within the slop, as for the solver: exact to the slop.
 
-use glam::Vec2;
+use glam::{DVec2, Vec2};
 use smallvec::SmallVec;
 
 use crate::geometry::constants::max_world_coordinate;
 use crate::geometry::math::Pose;
-use crate::geometry::query::ray::ray_entry;
+use crate::geometry::query::ray::entry_distance;
 use crate::geometry::query::toi::{ToiConfig, ToiFailure, ToiInput, ToiState, time_of_impact};
 use crate::geometry::shape::proxy::ShapeProxy;
 use crate::geometry::solver::static_set::StaticSet;
@@ -331,99 +331,128 @@ pub(crate) fn slide(
     Ok(slid)
 }
 
-/// A ray from `origin` along `delta` (its whole length: fractions are of it), checked for use.
-fn ray(origin: Vec2, delta: Vec2, slop: f32) -> Result<(), CastError> {
-    if !origin.is_finite() || !delta.is_finite() {
-        return Err(CastError::NonFinite);
-    }
-    if delta == Vec2::ZERO {
-        return Err(CastError::ZeroLength);
-    }
-    if origin.abs().max((origin + delta).abs()).max_element() > max_world_coordinate(slop) {
-        return Err(CastError::CoordinatesTooLarge);
-    }
-    Ok(())
+/// A ray checked for use: from `origin` along a unit direction (in `f64`, so that any finite
+/// direction length normalises) for `length` metres.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Ray {
+    origin: Vec2,
+    unit: DVec2,
+    length: f32,
 }
 
-/// Walks the targets whose boxes the ray `origin + t delta` crosses, nearest subtrees first,
-/// calling `visit` with each target's exact entry ([`ray_entry`]); `visit` returns the
-/// fraction past which no target matters.
+impl Ray {
+    /// The ray from `origin` along `direction` (any finite length but zero) for `length` (m),
+    /// or why it cannot be cast.
+    pub(crate) fn new(
+        origin: Vec2,
+        direction: Vec2,
+        length: f32,
+        slop: f32,
+    ) -> Result<Self, CastError> {
+        if !origin.is_finite() || !direction.is_finite() || !length.is_finite() {
+            return Err(CastError::NonFinite);
+        }
+        // In `f64` a finite `f32` direction neither overflows nor underflows when squared
+        // (1e-40, a subnormal, or 1e30 alike).
+        let direction = direction.as_dvec2();
+        let norm = direction.length();
+        if norm == 0.0 || length <= 0.0 {
+            return Err(CastError::ZeroLength);
+        }
+        let ray = Self {
+            origin,
+            unit: direction / norm,
+            length,
+        };
+        let end = ray.at(f64::from(length));
+        if origin.abs().max(end.abs()).max_element() > max_world_coordinate(slop) {
+            return Err(CastError::CoordinatesTooLarge);
+        }
+        Ok(ray)
+    }
+
+    /// The point `distance` metres along the ray.
+    fn at(&self, distance: f64) -> Vec2 {
+        (self.origin.as_dvec2() + distance * self.unit).as_vec2()
+    }
+}
+
+/// Walks the targets whose boxes `ray` crosses, nearest subtrees first, calling `visit` with
+/// each target's exact entry ([`entry_distance`]) and its distance along the ray (m); `visit`
+/// returns the distance past which no target matters.
 fn ray_walk(
     statics: &StaticSet,
-    origin: Vec2,
-    delta: Vec2,
+    ray: &Ray,
     accept: impl Fn(u32) -> bool,
-    mut visit: impl FnMut(TargetHit) -> f32,
+    mut visit: impl FnMut(TargetHit, f64) -> f64,
 ) {
-    // The boxes hold the shapes exactly; a hair of margin keeps a ray along a box's face
-    // from missing it by a rounding.
-    let margin = Vec2::splat(1e-5 * (1.0 + origin.abs().max_element()));
-    let mut limit = 1.0;
-    statics.bvh().cast(origin, delta, margin, 1.0, |index, _| {
-        let target = &statics.items()[index as usize];
-        if statics.is_disabled(index as usize) || !accept(index) {
-            return limit;
-        }
-        // The rotation the set keeps per target: no sine and cosine per ray.
-        let pose = Pose {
-            p: target.position,
-            q: statics.records()[index as usize].key.rotation,
-        };
-        if let Some((t, normal)) = ray_entry(origin, delta, limit, &target.proxy, pose) {
-            let hit = TargetHit {
-                target: index,
-                fraction: t,
-                point: origin + t * delta,
-                normal,
-                separation: 0.0,
-            };
-            limit = visit(hit);
-        }
-        limit
-    });
+    let length = f64::from(ray.length);
+    // The hierarchy's boxes are walked in `f32`, along the whole ray; they hold the shapes
+    // exactly, and a hair of margin keeps a ray along a box's face from missing it by a
+    // rounding.
+    let delta = (ray.unit * length).as_vec2();
+    let margin = Vec2::splat(1e-5 * (1.0 + ray.origin.abs().max_element()));
+    let mut limit = length;
+    statics
+        .bvh()
+        .cast(ray.origin, delta, margin, 1.0, |index, _| {
+            let target = &statics.items()[index as usize];
+            if !statics.is_disabled(index as usize) && accept(index) {
+                // The rotation the set keeps per target: no sine and cosine per ray.
+                let pose = Pose {
+                    p: target.position,
+                    q: statics.records()[index as usize].key.rotation,
+                };
+                if let Some((distance, normal)) =
+                    entry_distance(ray.origin, ray.unit, limit, &target.proxy, pose)
+                {
+                    let hit = TargetHit {
+                        target: index,
+                        fraction: (distance / length) as f32,
+                        point: ray.at(distance),
+                        normal,
+                        separation: 0.0,
+                    };
+                    limit = visit(hit, distance);
+                }
+            }
+            // The boxes' limit as a fraction of the ray, rounded up: never short of `limit`.
+            ((limit / length) as f32).next_up()
+        });
 }
 
-/// The first target the ray `origin + t delta`, `t` in `[0, 1]`, enters (ties to the lower
-/// index), among those `accept` lets it hit: the exact surface point.
+/// The first target `ray` enters (ties to the lower index), among those `accept` lets it hit:
+/// the exact surface point.
 pub(crate) fn ray_first(
     statics: &StaticSet,
-    origin: Vec2,
-    delta: Vec2,
-    slop: f32,
+    ray: &Ray,
     accept: impl Fn(u32) -> bool,
-) -> Result<Option<TargetHit>, CastError> {
-    ray(origin, delta, slop)?;
-    let mut best: Option<TargetHit> = None;
-    ray_walk(statics, origin, delta, accept, |hit| {
-        if best.is_none_or(|b| {
-            hit.fraction < b.fraction || (hit.fraction == b.fraction && hit.target < b.target)
-        }) {
-            best = Some(hit);
+) -> Option<TargetHit> {
+    let mut best: Option<(TargetHit, f64)> = None;
+    ray_walk(statics, ray, accept, |hit, distance| {
+        if best.is_none_or(|(b, d)| distance < d || (distance == d && hit.target < b.target)) {
+            best = Some((hit, distance));
         }
-        best.map_or(1.0, |b| b.fraction)
+        best.map_or(f64::from(ray.length), |(_, d)| d)
     });
-    Ok(best)
+    best.map(|(hit, _)| hit)
 }
 
-/// Every target the ray enters, appended to `hits` by fraction (ties by index).
+/// Every target `ray` enters, appended to `hits` by fraction (ties by index).
 pub(crate) fn ray_all(
     statics: &StaticSet,
-    origin: Vec2,
-    delta: Vec2,
-    slop: f32,
+    ray: &Ray,
     accept: impl Fn(u32) -> bool,
     hits: &mut Vec<TargetHit>,
-) -> Result<(), CastError> {
-    ray(origin, delta, slop)?;
+) {
     let start = hits.len();
-    ray_walk(statics, origin, delta, accept, |hit| {
+    ray_walk(statics, ray, accept, |hit, _| {
         hits.push(hit);
-        1.0
+        f64::from(ray.length)
     });
     hits[start..].sort_by(|a, b| {
         a.fraction
             .total_cmp(&b.fraction)
             .then(a.target.cmp(&b.target))
     });
-    Ok(())
 }
