@@ -235,6 +235,47 @@ fn a_ray_takes_any_finite_direction_length() {
 }
 
 #[test]
+fn a_slide_refuses_a_runaway_move() {
+    let mut app = app_with(|world| {
+        wall(world, 5.0, None);
+    });
+    let slides = app
+        .world_mut()
+        .run_system_once(|q: StaticQuery| {
+            let (ball, f) = (Collider::circle(0.25).unwrap(), CastFilter::default());
+            let slides = [
+                Vec2::new(f32::INFINITY, 0.0),
+                Vec2::new(0.0, f32::NEG_INFINITY),
+                Vec2::new(f32::NAN, 0.0),
+                Vec2::new(1e30, 0.0),
+                Vec2::new(0.0, -1e30),
+                Vec2::new(-1e30, 1e30),
+            ]
+            .map(|by| q.move_and_slide(&ball, Vec2::ZERO, 0.0, by, &f).err());
+            let zero = q
+                .move_and_slide(&ball, Vec2::NAN, 0.0, Vec2::ZERO, &f)
+                .err();
+            (slides, zero)
+        })
+        .unwrap();
+    use CastError::{CoordinatesTooLarge, NonFinite};
+    assert_eq!(
+        slides,
+        (
+            [
+                Some(NonFinite),
+                Some(NonFinite),
+                Some(NonFinite),
+                Some(CoordinatesTooLarge),
+                Some(CoordinatesTooLarge),
+                Some(CoordinatesTooLarge),
+            ],
+            Some(NonFinite)
+        )
+    );
+}
+
+#[test]
 fn ten_thousand_casts_match_brute_force_over_every_static() {
     let level = generate_level(&LevelConfig {
         bodies: 0,

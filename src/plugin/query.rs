@@ -189,12 +189,22 @@ impl StaticQuery<'_> {
     /// Moves `collider` (origin at `position`, turned by `angle`, which it keeps) by
     /// `displacement`, sliding along the statics it meets: a character controller's move.
     ///
-    /// Casts the motion; at a hit, stops there, backs out to the slop along the hit's normal
-    /// and goes on with what is left of the motion projected onto every surface met so far
-    /// (as Box2D's `b2World_CastMover` and `b2SolvePlanes`), at most four casts. It never
-    /// ends inside a static it did not start in: every stop is a time of impact's, half the
-    /// slop from the surface or more. A collider that starts overlapping a static is not
-    /// moved (its first hit has fraction 0). A zero displacement moves nothing and is no error.
+    /// Casts the motion; at a hit (where the surfaces come within the slop) it stops there and
+    /// goes on with what is left of the motion projected so that it goes into none of the
+    /// surfaces met so far (after Box2D's `b2World_CastMover` and `b2SolvePlanes`), at most
+    /// six casts. It never ends inside a static it did not start in: every static is either
+    /// stopped at by a cast (three quarters of the slop from its surface or more) or, once
+    /// met, never approached again in this move (in acute corners too). A collider that
+    /// starts within the slop of a static slides along it or leaves it; one that starts
+    /// overlapping a static can move out of it (when their cores overlap the static does not
+    /// block it at all). `hits` holds the statics that stopped or turned the motion, and those
+    /// it started overlapping.
+    ///
+    /// A zero displacement moves nothing and is no error. A non-finite position, angle or
+    /// displacement is [`CastError::NonFinite`]; a move that would take the collider beyond
+    /// the coordinate limit ([`max_world_coordinate`](crate::geometry::max_world_coordinate)
+    /// of the slop, a runaway velocity's 1e30 say) is [`CastError::CoordinatesTooLarge`], and
+    /// the collider is not moved.
     ///
     /// ```
     /// use bevy_ccd::prelude::*;
@@ -225,9 +235,6 @@ impl StaticQuery<'_> {
         displacement: Vec2,
         filter: &CastFilter,
     ) -> Result<Slide, CastError> {
-        if !angle.is_finite() {
-            return Err(CastError::NonFinite);
-        }
         let slid = slide(
             &self.workspace.statics,
             collider.proxy(),
@@ -305,7 +312,8 @@ impl StaticQuery<'_> {
 pub struct Slide {
     /// The collider's final origin (m).
     pub position: Vec2,
-    /// The statics it met on the way, in order.
+    /// The statics that stopped or turned it on the way, and those it started overlapping, in
+    /// order.
     pub hits: SmallVec<[CastHit; MAX_SLIDE_CASTS]>,
 }
 
