@@ -423,6 +423,35 @@ fn world_of(statics: &[(Collider, Vec2, f32)]) -> (bevy_app::App, Vec<Target>) {
     (app, targets)
 }
 
+/// Casts every ray `(origin, direction, max_distance)` through the app's statics; each hit in
+/// the reference's terms: the target's index, the distance along the ray (m), point, normal.
+fn cast_rays(
+    app: &mut bevy_app::App,
+    targets: &[Target],
+    rays: Vec<(Vec2, Vec2, f32)>,
+) -> Vec<Option<(usize, f64, Vec2, Vec2)>> {
+    let lengths: Vec<f32> = rays.iter().map(|r| r.2).collect();
+    let found: Vec<Option<CastHit>> = app
+        .world_mut()
+        .run_system_once(move |q: StaticQuery| {
+            rays.iter()
+                .map(|&(o, d, l)| q.cast_ray(o, d, l, &CastFilter::default()).unwrap())
+                .collect::<Vec<_>>()
+        })
+        .unwrap();
+    found
+        .iter()
+        .zip(lengths)
+        .map(|(hit, length)| {
+            hit.map(|h| {
+                let i = targets.iter().position(|t| t.entity == h.entity).unwrap();
+                let distance = f64::from(h.fraction) * f64::from(length);
+                (i, distance, h.point, h.normal)
+            })
+        })
+        .collect()
+}
+
 #[test]
 fn three_thousand_rays_through_a_world_up_to_the_coordinate_limit_match_the_reference() {
     let mut rng = SceneRng::new(35);
@@ -435,27 +464,14 @@ fn three_thousand_rays_through_a_world_up_to_the_coordinate_limit_match_the_refe
         .collect();
     let (mut app, targets) = world_of(&statics);
     let rays: Vec<RandomRay> = (0..3000).map(|_| random_ray(&mut rng, &targets)).collect();
-    let queries: Vec<(Vec2, Vec2, f32)> = rays
+    let queries = rays
         .iter()
         .map(|r| (r.origin, r.direction, r.max_distance))
         .collect();
-    let found: Vec<Option<CastHit>> = app
-        .world_mut()
-        .run_system_once(move |q: StaticQuery| {
-            queries
-                .iter()
-                .map(|&(o, d, l)| q.cast_ray(o, d, l, &CastFilter::default()).unwrap())
-                .collect::<Vec<_>>()
-        })
-        .unwrap();
+    let found = cast_rays(&mut app, &targets, queries);
     let mut tally = Tally::default();
-    for (k, (ray, hit)) in rays.iter().zip(&found).enumerate() {
+    for (k, (ray, found)) in rays.iter().zip(found).enumerate() {
         let u = ray.direction.as_dvec2().normalize();
-        let found = hit.map(|h| {
-            let i = targets.iter().position(|t| t.entity == h.entity).unwrap();
-            let distance = f64::from(h.fraction) * f64::from(ray.max_distance);
-            (i, distance, h.point, h.normal)
-        });
         tally.compare(
             &targets,
             (ray.origin.as_dvec2(), u, f64::from(ray.max_distance)),
@@ -534,29 +550,15 @@ fn a_two_centimetre_pole_is_hit_by_every_ray_through_it_at_100_and_1000_m() {
             }
         }
     }
-    let queries: Vec<(Vec2, Vec2, f32)> = rays.iter().map(|r| (r.1, r.2, r.3)).collect();
-    let found: Vec<Option<CastHit>> = app
-        .world_mut()
-        .run_system_once(move |q: StaticQuery| {
-            queries
-                .iter()
-                .map(|&(o, d, l)| q.cast_ray(o, d, l, &CastFilter::default()).unwrap())
-                .collect::<Vec<_>>()
-        })
-        .unwrap();
+    let found = cast_rays(
+        &mut app,
+        &targets,
+        rays.iter().map(|r| (r.1, r.2, r.3)).collect(),
+    );
     let mut tally = Tally::default();
     let mut missed = 0;
-    for (&(i, origin, direction, length), hit) in rays.iter().zip(&found) {
-        missed += usize::from(hit.is_none_or(|h| h.entity != targets[i].entity));
-        let found = hit.map(|h| {
-            let j = targets.iter().position(|t| t.entity == h.entity).unwrap();
-            (
-                j,
-                f64::from(h.fraction) * f64::from(length),
-                h.point,
-                h.normal,
-            )
-        });
+    for (&(i, origin, direction, length), found) in rays.iter().zip(found) {
+        missed += usize::from(found.is_none_or(|(j, ..)| j != i));
         tally.compare(
             &targets,
             (
