@@ -203,6 +203,79 @@ fn bad_input_is_an_error_value() {
 }
 
 #[test]
+fn a_ray_takes_any_finite_direction_length() {
+    let mut app = app_with(|world| {
+        wall(world, 5.0, None);
+    });
+    let rays = app
+        .world_mut()
+        .run_system_once(|q: StaticQuery| {
+            // The same direction at lengths 1, 2^-135 (subnormal, 1e-41), 2^100 (1e30): the
+            // same unit vector, so the same hit bit for bit; 1e-40 and 1e30 along x.
+            let (a, b) = (2f32.powi(-135), 2f32.powi(100));
+            [
+                Vec2::new(4.0, -3.0),
+                Vec2::new(4.0 * a, -3.0 * a),
+                Vec2::new(4.0 * b, -3.0 * b),
+                Vec2::X,
+                Vec2::new(1e-40, 0.0),
+                Vec2::new(1e30, 0.0),
+            ]
+            .map(|d| q.cast_ray(Vec2::ZERO, d, 20.0, &CastFilter::default()))
+        })
+        .unwrap();
+    let hit = |r: &Result<Option<CastHit>, CastError>| r.expect("a valid ray").expect("a hit");
+    for r in &rays[1..3] {
+        assert_eq!(hit(r), hit(&rays[0]));
+    }
+    for r in &rays[4..] {
+        assert_eq!(hit(r), hit(&rays[3]));
+    }
+    assert!((hit(&rays[3]).fraction * 20.0 - 4.9).abs() <= ROUND);
+}
+
+#[test]
+fn a_slide_refuses_a_runaway_move() {
+    let mut app = app_with(|world| {
+        wall(world, 5.0, None);
+    });
+    let slides = app
+        .world_mut()
+        .run_system_once(|q: StaticQuery| {
+            let (ball, f) = (Collider::circle(0.25).unwrap(), CastFilter::default());
+            let slides = [
+                Vec2::new(f32::INFINITY, 0.0),
+                Vec2::new(0.0, f32::NEG_INFINITY),
+                Vec2::new(f32::NAN, 0.0),
+                Vec2::new(1e30, 0.0),
+                Vec2::new(0.0, -1e30),
+                Vec2::new(-1e30, 1e30),
+            ]
+            .map(|by| q.move_and_slide(&ball, Vec2::ZERO, 0.0, by, &f).err());
+            let zero = q
+                .move_and_slide(&ball, Vec2::NAN, 0.0, Vec2::ZERO, &f)
+                .err();
+            (slides, zero)
+        })
+        .unwrap();
+    use CastError::{CoordinatesTooLarge, NonFinite};
+    assert_eq!(
+        slides,
+        (
+            [
+                Some(NonFinite),
+                Some(NonFinite),
+                Some(NonFinite),
+                Some(CoordinatesTooLarge),
+                Some(CoordinatesTooLarge),
+                Some(CoordinatesTooLarge),
+            ],
+            Some(NonFinite)
+        )
+    );
+}
+
+#[test]
 fn ten_thousand_casts_match_brute_force_over_every_static() {
     let level = generate_level(&LevelConfig {
         bodies: 0,

@@ -9,7 +9,7 @@ use smallvec::SmallVec;
 use super::workspace::CcdWorkspace;
 use super::{CcdConfig, Collider, CollisionLayers};
 use crate::geometry::query::cast::{
-    MAX_SLIDE_CASTS, TargetHit, cast_all, cast_first, ray_all, ray_first, slide,
+    MAX_SLIDE_CASTS, Ray, TargetHit, cast_all, cast_first, ray_all, ray_first, slide,
 };
 use crate::geometry::{CastError, ShapeProxy, Sweep};
 
@@ -145,8 +145,11 @@ impl StaticQuery<'_> {
         self.all(collider.proxy(), sweep, filter, hits)
     }
 
-    /// The first target the ray from `origin` along `direction` (any length but zero) reaches
-    /// within `max_distance` (m), or `None`.
+    /// The first target the ray from `origin` along `direction` reaches within `max_distance`
+    /// (m), or `None`. `direction` may have any finite length but zero (1e-40 and 1e30 alike);
+    /// a zero or non-finite one is a [`CastError`]. The hit is the exact entry into the
+    /// target's surface to `f32` rounding at any range inside the coordinate limit, with a unit
+    /// normal.
     pub fn cast_ray(
         &self,
         origin: Vec2,
@@ -154,14 +157,10 @@ impl StaticQuery<'_> {
         max_distance: f32,
         filter: &CastFilter,
     ) -> Result<Option<CastHit>, CastError> {
-        let delta = ray_delta(direction, max_distance)?;
-        let hit = ray_first(
-            &self.workspace.statics,
-            origin,
-            delta,
-            self.config.linear_slop,
-            |index| self.accepts(index, filter),
-        )?;
+        let ray = Ray::new(origin, direction, max_distance, self.config.linear_slop)?;
+        let hit = ray_first(&self.workspace.statics, &ray, |index| {
+            self.accepts(index, filter)
+        });
         Ok(hit.map(|hit| self.hit(hit)))
     }
 
@@ -175,16 +174,14 @@ impl StaticQuery<'_> {
         filter: &CastFilter,
         hits: &mut Vec<CastHit>,
     ) -> Result<(), CastError> {
-        let delta = ray_delta(direction, max_distance)?;
+        let ray = Ray::new(origin, direction, max_distance, self.config.linear_slop)?;
         let mut found = Vec::new();
         ray_all(
             &self.workspace.statics,
-            origin,
-            delta,
-            self.config.linear_slop,
+            &ray,
             |index| self.accepts(index, filter),
             &mut found,
-        )?;
+        );
         hits.extend(found.into_iter().map(|hit| self.hit(hit)));
         Ok(())
     }
@@ -192,12 +189,22 @@ impl StaticQuery<'_> {
     /// Moves `collider` (origin at `position`, turned by `angle`, which it keeps) by
     /// `displacement`, sliding along the statics it meets: a character controller's move.
     ///
-    /// Casts the motion; at a hit, stops there, backs out to the slop along the hit's normal
-    /// and goes on with what is left of the motion projected onto every surface met so far
-    /// (as Box2D's `b2World_CastMover` and `b2SolvePlanes`), at most four casts. It never
-    /// ends inside a static it did not start in: every stop is a time of impact's, half the
-    /// slop from the surface or more. A collider that starts overlapping a static is not
-    /// moved (its first hit has fraction 0). A zero displacement moves nothing and is no error.
+    /// Casts the motion; at a hit (where the surfaces come within the slop) it stops there and
+    /// goes on with what is left of the motion projected so that it goes into none of the
+    /// surfaces met so far (after Box2D's `b2World_CastMover` and `b2SolvePlanes`), at most
+    /// six casts. It never ends inside a static it did not start in: every static is either
+    /// stopped at by a cast (three quarters of the slop from its surface or more) or, once
+    /// met, never approached again in this move (in acute corners too). A collider that
+    /// starts within the slop of a static slides along it or leaves it; one that starts
+    /// overlapping a static can move out of it (when their cores overlap the static does not
+    /// block it at all). `hits` holds the statics that stopped or turned the motion, and those
+    /// it started overlapping.
+    ///
+    /// A zero displacement moves nothing and is no error. A non-finite position, angle or
+    /// displacement is [`CastError::NonFinite`]; a move that would take the collider beyond
+    /// the coordinate limit ([`max_world_coordinate`](crate::geometry::max_world_coordinate)
+    /// of the slop, a runaway velocity's 1e30 say) is [`CastError::CoordinatesTooLarge`], and
+    /// the collider is not moved.
     ///
     /// ```
     /// use bevy_ccd::prelude::*;
@@ -228,9 +235,6 @@ impl StaticQuery<'_> {
         displacement: Vec2,
         filter: &CastFilter,
     ) -> Result<Slide, CastError> {
-        if !angle.is_finite() {
-            return Err(CastError::NonFinite);
-        }
         let slid = slide(
             &self.workspace.statics,
             collider.proxy(),
@@ -308,7 +312,8 @@ impl StaticQuery<'_> {
 pub struct Slide {
     /// The collider's final origin (m).
     pub position: Vec2,
-    /// The statics it met on the way, in order.
+    /// The statics that stopped or turned it on the way, and those it started overlapping, in
+    /// order.
     pub hits: SmallVec<[CastHit; MAX_SLIDE_CASTS]>,
 }
 
@@ -316,16 +321,4 @@ pub struct Slide {
 fn shape_sweep(collider: &Collider, from: (Vec2, f32), to: (Vec2, f32)) -> Sweep {
     let center = collider.mass_properties(1.0).center;
     Sweep::from_origins(center, from.0, from.1, to.0, to.1)
-}
-
-/// A ray's whole length as a vector: `max_distance` along `direction`.
-fn ray_delta(direction: Vec2, max_distance: f32) -> Result<Vec2, CastError> {
-    if !direction.is_finite() || !max_distance.is_finite() {
-        return Err(CastError::NonFinite);
-    }
-    let unit = direction.try_normalize().ok_or(CastError::ZeroLength)?;
-    if max_distance <= 0.0 {
-        return Err(CastError::ZeroLength);
-    }
-    Ok(unit * max_distance)
 }

@@ -8,12 +8,12 @@
 //! far, so a first-hit cast through a large level tests the few targets along the way. A hit
 //! is where the surfaces come within the slop, as for the solver: exact to the slop.
 
-use glam::Vec2;
+use glam::{DVec2, Vec2};
 use smallvec::SmallVec;
 
 use crate::geometry::constants::max_world_coordinate;
 use crate::geometry::math::Pose;
-use crate::geometry::query::ray::ray_entry;
+use crate::geometry::query::ray::entry_distance;
 use crate::geometry::query::toi::{ToiConfig, ToiFailure, ToiInput, ToiState, time_of_impact};
 use crate::geometry::shape::proxy::ShapeProxy;
 use crate::geometry::solver::static_set::StaticSet;
@@ -69,8 +69,6 @@ struct Cast<'a> {
     proxy: &'a ShapeProxy,
     sweep: Sweep,
     slop: f32,
-    /// The separation a hit is reported at (m): the slop, or less for a slide.
-    target: f32,
 }
 
 impl<'a> Cast<'a> {
@@ -87,12 +85,7 @@ impl<'a> Cast<'a> {
         if far > max_world_coordinate(slop) {
             return Err(CastError::CoordinatesTooLarge);
         }
-        Ok(Self {
-            proxy,
-            sweep,
-            slop,
-            target: slop,
-        })
+        Ok(Self { proxy, sweep, slop })
     }
 
     /// Walks the targets whose boxes the cast's path crosses, nearest subtrees first, calling
@@ -140,7 +133,7 @@ impl<'a> Cast<'a> {
             max_fraction,
             config: ToiConfig {
                 linear_slop: self.slop,
-                target_separation: (self.target != self.slop).then_some(self.target),
+                target_separation: None,
             },
         };
         let out = time_of_impact(&input);
@@ -251,27 +244,36 @@ pub(crate) fn cast_all(
 pub(crate) struct Slid {
     /// The shape's final origin (m).
     pub(crate) position: Vec2,
-    /// The targets it met, in order (one per cast that hit).
+    /// The targets that stopped or turned its motion, or that it started overlapping, in order
+    /// (one per cast).
     pub(crate) hits: SmallVec<[TargetHit; MAX_SLIDE_CASTS]>,
 }
 
-/// Casts a slide makes at most: each meets at most one new plane, and in 2D two planes pin a
-/// shape, so a few more than two settle any corner.
-pub(crate) const MAX_SLIDE_CASTS: usize = 4;
-
-/// Gauss-Seidel passes over a slide's planes when projecting the rest of its motion.
-const PLANE_PASSES: usize = 4;
+/// Casts a slide makes at most. Each cast that does not end the slide meets one target and
+/// adds its plane; in 2D two planes pin a shape, and a shape may start touching a few targets
+/// (each found by a cast at fraction 0), so a few more than two settle any corner.
+pub(crate) const MAX_SLIDE_CASTS: usize = 6;
 
 /// Moves `proxy` (origin at `position`, turned by `angle`, which it keeps) by `displacement`,
-/// sliding along what it meets, as Box2D's `b2World_CastMover` with `b2SolvePlanes`: cast the
-/// rest of the motion; stop at a hit, push back out to the slop along its normal; project what
-/// is left of the motion onto every plane met so far (no component into any of them) and
-/// cast again, at most [`MAX_SLIDE_CASTS`] times.
+/// sliding along what it meets, after Box2D's `b2World_CastMover` and `b2SolvePlanes`: cast
+/// the rest of the motion; stop at the first hit (where the surfaces come within the slop) and
+/// keep its plane (the target and its normal); project what is left of the motion onto the
+/// cone of directions that go into none of the planes met so far, and cast again, at most
+/// [`MAX_SLIDE_CASTS`] times.
 ///
-/// Slides cast with a hit separation of half the slop, so that a shape resting the slop from
-/// a wall (where the last hit and its push left it) moves along it without meeting it again
-/// at once: the search reports hits `slop / 2 ± slop / 4` apart, never touching. A shape that
-/// starts overlapping a target is not moved (its first hit has fraction 0 and no push).
+/// There is no push back out along a normal: in an acute corner that push goes into the other
+/// wall. Instead a target whose plane the shape has is left out of the later casts, which is
+/// sound because the targets are convex: a straight move `d` with `d·n >= 0` for the normal `n`
+/// at the closest points never brings the shape closer to that target (the target lies behind
+/// the plane through its closest point, and the move does not approach that plane), and every
+/// later move of the slide keeps `d·n >= 0` for every plane kept. So every target is either
+/// guarded by the time of impact (the shape stops within the slop of it, never closer than
+/// three quarters of the slop) or kept no closer than where the shape met it.
+///
+/// A target the shape starts within the slop of is met at fraction 0: its plane is kept, and
+/// the hit is reported only when the motion goes into it. A target the shape starts
+/// overlapping is reported; its plane keeps the shape from going deeper, and when the cores
+/// overlap (no normal) it is left out and does not block the shape, which can move out of it.
 pub(crate) fn slide(
     statics: &StaticSet,
     proxy: &ShapeProxy,
@@ -281,17 +283,24 @@ pub(crate) fn slide(
     slop: f32,
     accept: impl Fn(u32) -> bool,
 ) -> Result<Slid, CastError> {
+    if !position.is_finite() || !angle.is_finite() || !displacement.is_finite() {
+        return Err(CastError::NonFinite);
+    }
     let mut slid = Slid {
         position,
         hits: SmallVec::new(),
     };
+    // Below this the rest of the motion is rounding: stop. (Largest components, which cannot
+    // overflow as a length can.)
+    let negligible = 1e-6 * displacement.abs().max_element();
+    let mut planes: SmallVec<[(u32, Vec2); MAX_SLIDE_CASTS]> = SmallVec::new();
     let mut rest = displacement;
-    // Below this the rest of the motion is rounding: stop.
-    let negligible = 1e-6 * displacement.length();
     for _ in 0..MAX_SLIDE_CASTS {
-        if rest.length() <= negligible {
+        // Nothing left (a zero displacement among it), or nothing the coordinates can express.
+        if rest.abs().max_element() <= negligible || slid.position + rest == slid.position {
             break;
         }
+        // Checks the slop, the shape and the coordinates: a runaway move is refused here.
         let sweep = Sweep::new(
             Vec2::ZERO,
             slid.position,
@@ -299,131 +308,170 @@ pub(crate) fn slide(
             slid.position + rest,
             angle,
         );
-        let mut cast = Cast::new(proxy, sweep, slop)?;
-        cast.target = 0.5 * slop;
-        let Some(hit) = first_hit(statics, &cast, &accept)? else {
+        let cast = Cast::new(proxy, sweep, slop)?;
+        let kept = |index: u32| planes.iter().any(|&(target, _)| target == index);
+        let Some(hit) = first_hit(statics, &cast, |index| !kept(index) && accept(index))? else {
             slid.position += rest;
             break;
         };
         slid.position += hit.fraction * rest;
-        slid.hits.push(hit);
-        if hit.separation < 0.0 || hit.normal == Vec2::ZERO {
-            // Started inside: no plane to slide along.
-            break;
-        }
-        // Back to the slop from the target, so that the next cast along it starts clear.
-        slid.position += (slop - hit.separation).max(0.0) * hit.normal;
         rest *= 1.0 - hit.fraction;
-        for _ in 0..PLANE_PASSES {
-            let mut changed = false;
-            for h in &slid.hits {
-                let into = rest.dot(h.normal);
-                if into < 0.0 {
-                    rest -= into * h.normal;
-                    changed = true;
-                }
-            }
-            if !changed {
-                break;
-            }
+        if hit.fraction > 0.0 || hit.separation < 0.0 || rest.dot(hit.normal) < 0.0 {
+            slid.hits.push(hit);
         }
+        planes.push((hit.target, hit.normal));
+        rest = project_onto_planes(rest, &planes);
     }
     Ok(slid)
 }
 
-/// A ray from `origin` along `delta` (its whole length: fractions are of it), checked for use.
-fn ray(origin: Vec2, delta: Vec2, slop: f32) -> Result<(), CastError> {
-    if !origin.is_finite() || !delta.is_finite() {
-        return Err(CastError::NonFinite);
+/// The part of `v` that goes into none of the planes: the nearest `u` to `v` with `u·n >= 0`
+/// for every normal `n` (a zero normal allows everything). The set is a cone with its apex at
+/// the origin, so in 2D the nearest point is `v` itself, the foot of `v` on one plane's line
+/// that the others allow (the longest such foot: `|v - u|² = |v|² - |u|²`), or the apex.
+fn project_onto_planes(v: Vec2, planes: &[(u32, Vec2)]) -> Vec2 {
+    // Rounding of `u·n` for a `u` that lies on a plane's line (its foot): not a move into it.
+    let rounding = 4.0 * f32::EPSILON * v.abs().max_element();
+    let allowed = |u: Vec2| planes.iter().all(|&(_, n)| u.dot(n) >= -rounding);
+    if planes.iter().all(|&(_, n)| v.dot(n) >= 0.0) {
+        return v;
     }
-    if delta == Vec2::ZERO {
-        return Err(CastError::ZeroLength);
-    }
-    if origin.abs().max((origin + delta).abs()).max_element() > max_world_coordinate(slop) {
-        return Err(CastError::CoordinatesTooLarge);
-    }
-    Ok(())
+    planes
+        .iter()
+        .filter(|&&(_, n)| n != Vec2::ZERO)
+        .map(|&(_, n)| v - v.dot(n) * n)
+        .filter(|&u| allowed(u))
+        .fold(Vec2::ZERO, |best, u| {
+            if u.length_squared() > best.length_squared() {
+                u
+            } else {
+                best
+            }
+        })
 }
 
-/// Walks the targets whose boxes the ray `origin + t delta` crosses, nearest subtrees first,
-/// calling `visit` with each target's exact entry ([`ray_entry`]); `visit` returns the
-/// fraction past which no target matters.
+/// A ray checked for use: from `origin` along a unit direction (in `f64`, so that any finite
+/// direction length normalises) for `length` metres.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Ray {
+    origin: Vec2,
+    unit: DVec2,
+    length: f32,
+}
+
+impl Ray {
+    /// The ray from `origin` along `direction` (any finite length but zero) for `length` (m),
+    /// or why it cannot be cast.
+    pub(crate) fn new(
+        origin: Vec2,
+        direction: Vec2,
+        length: f32,
+        slop: f32,
+    ) -> Result<Self, CastError> {
+        if !origin.is_finite() || !direction.is_finite() || !length.is_finite() {
+            return Err(CastError::NonFinite);
+        }
+        // In `f64` a finite `f32` direction neither overflows nor underflows when squared
+        // (1e-40, a subnormal, or 1e30 alike).
+        let direction = direction.as_dvec2();
+        let norm = direction.length();
+        if norm == 0.0 || length <= 0.0 {
+            return Err(CastError::ZeroLength);
+        }
+        let ray = Self {
+            origin,
+            unit: direction / norm,
+            length,
+        };
+        let end = ray.at(f64::from(length));
+        if origin.abs().max(end.abs()).max_element() > max_world_coordinate(slop) {
+            return Err(CastError::CoordinatesTooLarge);
+        }
+        Ok(ray)
+    }
+
+    /// The point `distance` metres along the ray.
+    fn at(&self, distance: f64) -> Vec2 {
+        (self.origin.as_dvec2() + distance * self.unit).as_vec2()
+    }
+}
+
+/// Walks the targets whose boxes `ray` crosses, nearest subtrees first, calling `visit` with
+/// each target's exact entry ([`entry_distance`]) and its distance along the ray (m); `visit`
+/// returns the distance past which no target matters.
 fn ray_walk(
     statics: &StaticSet,
-    origin: Vec2,
-    delta: Vec2,
+    ray: &Ray,
     accept: impl Fn(u32) -> bool,
-    mut visit: impl FnMut(TargetHit) -> f32,
+    mut visit: impl FnMut(TargetHit, f64) -> f64,
 ) {
-    // The boxes hold the shapes exactly; a hair of margin keeps a ray along a box's face
-    // from missing it by a rounding.
-    let margin = Vec2::splat(1e-5 * (1.0 + origin.abs().max_element()));
-    let mut limit = 1.0;
-    statics.bvh().cast(origin, delta, margin, 1.0, |index, _| {
-        let target = &statics.items()[index as usize];
-        if statics.is_disabled(index as usize) || !accept(index) {
-            return limit;
-        }
-        // The rotation the set keeps per target: no sine and cosine per ray.
-        let pose = Pose {
-            p: target.position,
-            q: statics.records()[index as usize].key.rotation,
-        };
-        if let Some((t, normal)) = ray_entry(origin, delta, limit, &target.proxy, pose) {
-            let hit = TargetHit {
-                target: index,
-                fraction: t,
-                point: origin + t * delta,
-                normal,
-                separation: 0.0,
-            };
-            limit = visit(hit);
-        }
-        limit
-    });
+    let length = f64::from(ray.length);
+    // The hierarchy's boxes are walked in `f32`, along the whole ray; they hold the shapes
+    // exactly, and a hair of margin keeps a ray along a box's face from missing it by a
+    // rounding.
+    let delta = (ray.unit * length).as_vec2();
+    let margin = Vec2::splat(1e-5 * (1.0 + ray.origin.abs().max_element()));
+    let mut limit = length;
+    statics
+        .bvh()
+        .cast(ray.origin, delta, margin, 1.0, |index, _| {
+            let target = &statics.items()[index as usize];
+            if !statics.is_disabled(index as usize) && accept(index) {
+                // The rotation the set keeps per target: no sine and cosine per ray.
+                let pose = Pose {
+                    p: target.position,
+                    q: statics.records()[index as usize].key.rotation,
+                };
+                if let Some((distance, normal)) =
+                    entry_distance(ray.origin, ray.unit, limit, &target.proxy, pose)
+                {
+                    let hit = TargetHit {
+                        target: index,
+                        fraction: (distance / length) as f32,
+                        point: ray.at(distance),
+                        normal,
+                        separation: 0.0,
+                    };
+                    limit = visit(hit, distance);
+                }
+            }
+            // The boxes' limit as a fraction of the ray, rounded up: never short of `limit`.
+            ((limit / length) as f32).next_up()
+        });
 }
 
-/// The first target the ray `origin + t delta`, `t` in `[0, 1]`, enters (ties to the lower
-/// index), among those `accept` lets it hit: the exact surface point.
+/// The first target `ray` enters (ties to the lower index), among those `accept` lets it hit:
+/// the exact surface point.
 pub(crate) fn ray_first(
     statics: &StaticSet,
-    origin: Vec2,
-    delta: Vec2,
-    slop: f32,
+    ray: &Ray,
     accept: impl Fn(u32) -> bool,
-) -> Result<Option<TargetHit>, CastError> {
-    ray(origin, delta, slop)?;
-    let mut best: Option<TargetHit> = None;
-    ray_walk(statics, origin, delta, accept, |hit| {
-        if best.is_none_or(|b| {
-            hit.fraction < b.fraction || (hit.fraction == b.fraction && hit.target < b.target)
-        }) {
-            best = Some(hit);
+) -> Option<TargetHit> {
+    let mut best: Option<(TargetHit, f64)> = None;
+    ray_walk(statics, ray, accept, |hit, distance| {
+        if best.is_none_or(|(b, d)| distance < d || (distance == d && hit.target < b.target)) {
+            best = Some((hit, distance));
         }
-        best.map_or(1.0, |b| b.fraction)
+        best.map_or(f64::from(ray.length), |(_, d)| d)
     });
-    Ok(best)
+    best.map(|(hit, _)| hit)
 }
 
-/// Every target the ray enters, appended to `hits` by fraction (ties by index).
+/// Every target `ray` enters, appended to `hits` by fraction (ties by index).
 pub(crate) fn ray_all(
     statics: &StaticSet,
-    origin: Vec2,
-    delta: Vec2,
-    slop: f32,
+    ray: &Ray,
     accept: impl Fn(u32) -> bool,
     hits: &mut Vec<TargetHit>,
-) -> Result<(), CastError> {
-    ray(origin, delta, slop)?;
+) {
     let start = hits.len();
-    ray_walk(statics, origin, delta, accept, |hit| {
+    ray_walk(statics, ray, accept, |hit, _| {
         hits.push(hit);
-        1.0
+        f64::from(ray.length)
     });
     hits[start..].sort_by(|a, b| {
         a.fraction
             .total_cmp(&b.fraction)
             .then(a.target.cmp(&b.target))
     });
-    Ok(())
 }

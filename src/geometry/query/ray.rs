@@ -7,15 +7,24 @@
 //! where it enters its first piece, so the entry is the least of the pieces' entries, each a
 //! quadratic (disc) or a clip against half-planes (Cyrus and Beck). Without a radius the
 //! hull is the only piece.
+//!
+//! The entry is computed in `f64` from the `f32` inputs, in the shape's frame and along the
+//! unit direction (distances, not fractions of the ray): a target a kilometre away is found
+//! to `f64` rounding, so the answer is the `f32` rounding of the exact one at any range inside
+//! the coordinate limit. In `f32` the disc's discriminant `b² - |m|² + r²` cancels when the
+//! disc is far compared with its radius (a 2 cm pole 100 m away loses `r²` entirely below the
+//! spacing of `|m|²`), and the offset of the ray from a far target is rounded to the spacing
+//! of its coordinates, which a glancing ray multiplies.
 
-use glam::Vec2;
+use glam::{DVec2, Vec2};
 
 use crate::geometry::math::Pose;
 use crate::geometry::shape::proxy::ShapeProxy;
 
 /// The first `t` in `[0, t_max]` at which `origin + t direction` is on or in `proxy` placed at
 /// `pose`, with the outward unit normal there (world); `t = 0` and a zero normal when the ray
-/// starts inside. `None` when it misses.
+/// starts inside. `None` when it misses (or `direction` is not finite). Any finite direction
+/// length is used as given: a zero direction asks only whether `origin` is inside.
 ///
 /// ```
 /// use bevy_ccd::geometry::{Circle, Pose, Shape, ray_entry};
@@ -33,102 +42,177 @@ pub fn ray_entry(
     proxy: &ShapeProxy,
     pose: Pose,
 ) -> Option<(f32, Vec2)> {
-    // In the shape's frame, where its points are.
-    let o = pose.inv_transform_point(origin);
-    let d = pose.q.inv_rotate(direction);
+    let d = direction.as_dvec2();
+    let length = d.length();
+    if !length.is_finite() {
+        return None;
+    }
+    // A zero direction: any unit one with nowhere to go (an entry only at 0, from inside).
+    let (unit, reach) = if length > 0.0 {
+        (d / length, f64::from(t_max) * length)
+    } else {
+        (DVec2::X, 0.0)
+    };
+    let (s, normal) = entry_distance(origin, unit, reach, proxy, pose)?;
+    let t = if length > 0.0 { s / length } else { 0.0 };
+    Some((t as f32, normal))
+}
+
+/// The first distance `s` in `[0, max_distance]` at which `origin + s unit` (`unit` of length
+/// one) is on or in `proxy` placed at `pose`, with the outward unit normal there (world): the
+/// entry of [`ray_entry`] in `f64`, along a direction normalised by the caller.
+pub(crate) fn entry_distance(
+    origin: Vec2,
+    unit: DVec2,
+    max_distance: f64,
+    proxy: &ShapeProxy,
+    pose: Pose,
+) -> Option<(f64, Vec2)> {
+    // The pose's rotation made unit in `f64`: `|q|²` is within a few `f32` epsilons of 1, so
+    // one Newton step of `1 / sqrt(x)` from 1, `(3 - x) / 2`, is exact to `f64` rounding. An
+    // unnormalised `q` would scale the ray about the shape's origin, moving a far ray sideways
+    // by `(|q| - 1)` times its distance.
+    let (c, s) = (f64::from(pose.q.c), f64::from(pose.q.s));
+    let scale = 0.5 * (3.0 - (c * c + s * s));
+    let q = DVec2::new(c * scale, s * scale);
+    // In the shape's frame, where its points are: `R^T (origin - p)`, the difference exact.
+    let inv_rotate = |v: DVec2| DVec2::new(q.x * v.x + q.y * v.y, q.x * v.y - q.y * v.x);
+    let o = inv_rotate(origin.as_dvec2() - pose.p.as_dvec2());
+    let d = inv_rotate(unit);
     let points = proxy.points();
-    let r = proxy.radius;
-    let mut best: Option<(f32, Vec2)> = None;
-    let mut take = |hit: Option<(f32, Vec2)>| {
+    let r = f64::from(proxy.radius);
+    let mut best: Option<(f64, DVec2)> = None;
+    let mut take = |hit: Option<(f64, DVec2)>| {
         if let Some(hit) = hit
             && best.is_none_or(|b| hit.0 < b.0)
         {
             best = Some(hit);
         }
     };
+    let point = |i: usize| points[i].as_dvec2();
     match points.len() {
-        1 => take(disc_entry(o, d, t_max, points[0], r)),
+        1 => take(disc_entry(o, d, max_distance, point(0), r)),
         n => {
             if n >= 3 || r == 0.0 {
-                take(hull_entry(o, d, t_max, points, 0.0));
+                take(hull_entry(o, d, max_distance, points));
             }
             if r > 0.0 {
-                for (i, &a) in points.iter().enumerate() {
-                    take(disc_entry(o, d, t_max, a, r));
+                for i in 0..n {
+                    let a = point(i);
+                    take(disc_entry(o, d, max_distance, a, r));
                     // A segment has one edge, walked both ways: one rectangle.
                     if n == 2 && i == 1 {
                         break;
                     }
-                    let b = points[(i + 1) % n];
-                    take(hull_entry(o, d, t_max, &[a, b], r));
+                    take(edge_entry(o, d, max_distance, a, point((i + 1) % n), r));
                 }
             }
         }
     }
-    best.map(|(t, normal)| (t, pose.q.rotate(normal)))
+    best.map(|(s, n)| {
+        let world = DVec2::new(q.x * n.x - q.y * n.y, q.y * n.x + q.x * n.y);
+        (s, world.as_vec2())
+    })
 }
 
-/// Entry into the disc of radius `r` about `c`: the smaller root of `|m + t d|² = r²`,
-/// `m = o - c`, i.e. `t² (d·d) + 2 t (m·d) + (m·m - r²) = 0`.
-fn disc_entry(o: Vec2, d: Vec2, t_max: f32, c: Vec2, r: f32) -> Option<(f32, Vec2)> {
+/// Entry into the disc of radius `r` about `c` along the unit `d`: the smaller root of
+/// `|m + s d|² = r²`, `m = o - c`, i.e. `s² + 2 s b + k = 0` with `b = m·d`, `k = |m|² - r²`.
+///
+/// Solved about the closest approach, as in Haines et al., "Precision Improvements for
+/// Ray/Sphere Intersection" (Ray Tracing Gems, 2019): the half-chord `h` has
+/// `h² = r² - |m - b d|²`, the squared offset of the line from the centre taken from the
+/// vector across the ray rather than as `b² - k` (which cancels for a far disc), and the root
+/// is `s = k / (-b + h)` (not `-b - h`, which cancels for an origin near the surface).
+fn disc_entry(o: DVec2, d: DVec2, max: f64, c: DVec2, r: f64) -> Option<(f64, DVec2)> {
     let m = o - c;
-    let (a, b, k) = (d.dot(d), m.dot(d), m.dot(m) - r * r);
+    let k = m.length_squared() - r * r;
     if k <= 0.0 {
-        return Some((0.0, Vec2::ZERO));
+        return Some((0.0, DVec2::ZERO));
     }
+    let b = m.dot(d);
     // Moving away, or the line passes outside.
-    let disc = b * b - a * k;
-    if b >= 0.0 || disc < 0.0 {
+    if b >= 0.0 {
         return None;
     }
-    // The smaller root as `k / (-b + sqrt)`, which does not cancel for a far disc.
-    let t = k / (-b + disc.sqrt());
-    (t <= t_max).then(|| (t, (m + t * d) / r))
+    let h2 = r * r - (m - b * d).length_squared();
+    if h2 < 0.0 {
+        return None;
+    }
+    let s = k / (-b + h2.sqrt());
+    (s <= max).then(|| (s, (m + s * d) / r))
 }
 
-/// Entry into the convex polygon `points` (counter-clockwise; two points: the segment) with
-/// every side moved out by `offset`: for a segment, the rectangle a distance `offset` about
-/// it. Clips `[0, t_max]` by each side's half-plane `n·(x - v) <= offset` (Cyrus-Beck).
-fn hull_entry(o: Vec2, d: Vec2, t_max: f32, points: &[Vec2], offset: f32) -> Option<(f32, Vec2)> {
-    let (mut enter, mut exit) = (0.0f32, t_max);
-    let mut normal = Vec2::ZERO;
-    let mut clip = |n: Vec2, v: Vec2, offset: f32| -> bool {
-        // n·(o + t d - v) <= offset, i.e. t (n·d) <= offset - n·(o - v).
+/// Entry into the rectangle a distance `r` about the segment `a b` (with `a != b`): its two
+/// long sides and the two ends' half-planes, clipped as in [`hull_entry`].
+fn edge_entry(o: DVec2, d: DVec2, max: f64, a: DVec2, b: DVec2, r: f64) -> Option<(f64, DVec2)> {
+    let along = (b - a).normalize_or_zero();
+    let side = DVec2::new(along.y, -along.x);
+    let mut clip = Clip::new(max);
+    let inside = clip.side(o, d, side, a, r)
+        && clip.side(o, d, -side, a, r)
+        && clip.side(o, d, -along, a, 0.0)
+        && clip.side(o, d, along, b, 0.0);
+    inside.then_some((clip.enter, clip.normal))
+}
+
+/// Entry into the convex polygon `points` (counter-clockwise; two points: the segment) by
+/// clipping `[0, max]` with each side's half-plane `n·(x - v) <= 0` (Cyrus-Beck). The sides'
+/// normals need no unit length for the clip (its times are ratios): only the entering side's
+/// is normalised.
+fn hull_entry(o: DVec2, d: DVec2, max: f64, points: &[Vec2]) -> Option<(f64, DVec2)> {
+    let mut clip = Clip::new(max);
+    let n = points.len();
+    // A segment: its line both ways, then its ends.
+    if n == 2 {
+        let (a, b) = (points[0].as_dvec2(), points[1].as_dvec2());
+        return edge_entry(o, d, max, a, b, 0.0);
+    }
+    for i in 0..n {
+        let v = points[i].as_dvec2();
+        let e = points[(i + 1) % n].as_dvec2() - v;
+        // Outward for a counter-clockwise polygon.
+        if !clip.side(o, d, DVec2::new(e.y, -e.x), v, 0.0) {
+            return None;
+        }
+    }
+    Some((clip.enter, clip.normal.normalize_or_zero()))
+}
+
+/// A Cyrus-Beck clip of the ray's interval `[enter, exit]` by half-planes.
+struct Clip {
+    enter: f64,
+    exit: f64,
+    /// The normal of the side the ray enters last (zero while `enter` is 0).
+    normal: DVec2,
+}
+
+impl Clip {
+    fn new(max: f64) -> Self {
+        Self {
+            enter: 0.0,
+            exit: max,
+            normal: DVec2::ZERO,
+        }
+    }
+
+    /// Clips by `n·(x - v) <= offset`, i.e. `s (n·d) <= offset - n·(o - v)`; whether the
+    /// interval is still non-empty.
+    fn side(&mut self, o: DVec2, d: DVec2, n: DVec2, v: DVec2, offset: f64) -> bool {
         let (num, den) = (offset - n.dot(o - v), n.dot(d));
         if den == 0.0 {
             return num >= 0.0;
         }
-        let t = num / den;
+        let s = num / den;
         if den < 0.0 {
-            if t > enter {
-                enter = t;
-                normal = n;
+            if s > self.enter {
+                self.enter = s;
+                self.normal = n;
             }
-        } else if t < exit {
-            exit = t;
+        } else if s < self.exit {
+            self.exit = s;
         }
-        enter <= exit
-    };
-    let n = points.len();
-    if n == 2 {
-        let (a, b) = (points[0], points[1]);
-        let along = (b - a).normalize_or_zero();
-        let side = Vec2::new(along.y, -along.x);
-        let inside = clip(side, a, offset)
-            && clip(-side, a, offset)
-            && clip(-along, a, 0.0)
-            && clip(along, b, 0.0);
-        return inside.then_some((enter, normal));
+        self.enter <= self.exit
     }
-    for (i, &v) in points.iter().enumerate() {
-        let e = points[(i + 1) % n] - v;
-        // Outward for a counter-clockwise polygon.
-        let side = Vec2::new(e.y, -e.x).normalize_or_zero();
-        if !clip(side, v, offset) {
-            return None;
-        }
-    }
-    Some((enter, normal))
 }
 
 #[cfg(test)]
