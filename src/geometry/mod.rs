@@ -35,8 +35,8 @@ pub use shape::proxy::ShapeProxy;
 pub use shape::{Aabb, Capsule, Circle, MassProperties, Polygon, Segment, Shape, ShapeError};
 pub use solver::body_solver::Resolution;
 pub(crate) use solver::body_solver::{
-    BodyOutcome, BodyPart, BodyState, CandidateHit, Compound, ImpactRecord, SolveSettings,
-    solve_body_filtered, solve_compound_body_filtered,
+    BodyFilter, BodyOutcome, BodyPart, BodyState, CandidateHit, ImpactRecord, SolveSettings,
+    solve_body,
 };
 pub(crate) use solver::static_set::{StaticItem, StaticSet};
 pub use sweep::Sweep;

@@ -67,6 +67,48 @@ impl Compounds {
         (&self.shapes[range.clone()], &self.layers[range])
     }
 
+    /// The mass properties at unit density of the swept body `entry`, about its centre of
+    /// mass, and, unless it is compound, its one part: its own [`Collider`], read in place.
+    pub(crate) fn mass_of(
+        &self,
+        entry: &BodyEntry,
+        colliders: &Query<&Collider, Without<StaticCollider>>,
+    ) -> Result<(MassProperties, Option<BodyPart>), CcdError> {
+        if entry.flags & COMPOUND != 0 {
+            let body = self.find(entry.entity).ok_or(CcdError::InvalidBodyData)?;
+            return Ok((body.mass, None));
+        }
+        let collider = colliders
+            .get(entry.entity)
+            .map_err(|_| CcdError::InvalidBodyData)?;
+        let mass = collider.mass_properties(1.0);
+        let part = BodyPart {
+            proxy: *collider.proxy(),
+            core_center: mass.center,
+            core_radius: collider.core_radius(),
+        };
+        Ok((mass, Some(part)))
+    }
+
+    /// The parts of the swept body `entry` and their layers: `own`, its own collider's part
+    /// ([`Self::mass_of`]), with the body's layers (`None`) unless it is compound.
+    pub(crate) fn parts_of<'a>(
+        &'a self,
+        entry: &BodyEntry,
+        own: &'a BodyPart,
+    ) -> (&'a [BodyPart], Option<&'a [CollisionLayers]>) {
+        match (entry.flags & COMPOUND != 0)
+            .then(|| self.find(entry.entity))
+            .flatten()
+        {
+            Some(body) => {
+                let (parts, layers) = self.parts(body);
+                (parts, Some(layers))
+            }
+            None => (core::slice::from_ref(own), None),
+        }
+    }
+
     /// The collider entity of part `part` of the swept body `entry`: the body itself unless it
     /// is compound.
     pub(crate) fn collider(&self, entry: &BodyEntry, part: u32) -> Entity {

@@ -8,8 +8,8 @@ use glam::Vec2;
 use super::compound::Compounds;
 use super::outcome::{CcdError, CcdOutcome};
 use super::workspace::{
-    BodyEntry, COLLIDER_MASS_OK, COMPOUND, HAS_LAYERS, HAS_MASS, HAS_VELOCITY, Lane, LayersOf,
-    WAS_CLEAR, Warned, any_layered,
+    BodyEntry, COLLIDER_MASS_OK, COMPOUND, HAS_LAYERS, HAS_MASS, HAS_VELOCITY, Lane, WAS_CLEAR,
+    Warned,
 };
 use super::{
     BodyMass, Collider, CollisionLayers, Friction, Restitution, StaticCollider, StepPoses,
@@ -230,50 +230,14 @@ pub(crate) struct Gather<'a, 'w, 's, 'c> {
     pub(crate) margin: f32,
     /// Whether the bodies' queries are walked side by side (see [`GROUP_MIN_BODIES`]).
     pub(crate) grouping: bool,
-    /// Each target's layers, in target order; empty when all have the default.
-    pub(crate) static_layers: &'a [CollisionLayers],
-    /// The bodies' layers.
-    pub(crate) body_layers: LayersOf<'a>,
 }
 
 impl Gather<'_, '_, '_, '_> {
     /// Checks the data of the lane's bodies ([`fill`]) and lists each one's candidate targets,
-    /// the statics within its swept bound whose layers it interacts with. Bodies with bad data
-    /// get an error and no candidate.
+    /// the statics within its swept bound (the solve filters them by layers). Bodies with bad
+    /// data get an error and no candidate.
     pub(crate) fn lane(&self, chunk: &mut [BodyEntry], lane: &mut Lane) {
         self.query_lane(chunk, lane);
-        let layered = !self.static_layers.is_empty() || any_layered(chunk);
-        if layered {
-            self.filter_layers(chunk, lane);
-        }
-    }
-
-    /// Drops the candidates a body's layers and the target's do not let it hit
-    /// ([`CollisionLayers::interacts`]), before any time of impact is computed. The bodies'
-    /// candidate runs lie in `lane.candidates` in body order, so they are compacted in place.
-    fn filter_layers(&self, chunk: &mut [BodyEntry], lane: &mut Lane) {
-        let layers_of = |target: u32| {
-            self.static_layers
-                .get(target as usize)
-                .copied()
-                .unwrap_or_default()
-        };
-        let mut kept = 0;
-        for body in chunk {
-            let layers = (self.body_layers)(body);
-            let (start, count) = (body.candidates as usize, body.candidate_count as usize);
-            let first = kept;
-            for read in start..start + count {
-                let target = lane.candidates[read];
-                if layers.interacts(layers_of(target)) {
-                    lane.candidates[kept] = target;
-                    kept += 1;
-                }
-            }
-            body.candidates = first as u32;
-            body.candidate_count = (kept - first) as u32;
-        }
-        lane.candidates.truncate(kept);
     }
 
     /// The broad phase of a lane: every body's candidate targets, by its swept bound alone.

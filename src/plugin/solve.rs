@@ -18,7 +18,7 @@ use super::parallel::{MAX_ITEMS, hand_out, pool, workers};
 use super::record::step_length;
 use super::sensors::{SensorLane, SensorWorld, sense_lane};
 use super::workspace::{
-    BodyEntry, BodyLayers, COMPOUND, CcdWorkspace, HAS_MASS, HAS_VELOCITY, Lane, LayersOf, NUDGED,
+    BodyEntry, BodyLayers, CcdWorkspace, HAS_MASS, HAS_VELOCITY, Lane, LayersOf, NUDGED,
     OVERLAPPING, WAS_CLEAR, Warned,
 };
 use super::write::{WriteLookups, WriteQuery, write_lane};
@@ -28,8 +28,8 @@ use super::{
 use crate::geometry::constants::MAX_SUBSTEPS;
 use crate::geometry::solver::sensor::PathPiece;
 use crate::geometry::{
-    self, BodyOutcome, BodyState, CandidateHit, Compound, ShapeProxy, SolveSettings, StaticSet,
-    solve_body_filtered, solve_compound_body_filtered,
+    self, BodyFilter, BodyOutcome, BodyPart, BodyState, CandidateHit, ShapeProxy, SolveSettings,
+    StaticSet, solve_body,
 };
 
 /// Lanes per worker: enough that workers finish together when bodies cost unevenly.
@@ -142,8 +142,6 @@ pub(crate) fn solve<H: CcdHooks + 'static>(
         limit,
         margin: config.linear_slop,
         grouping: most >= GROUP_MIN_BODIES && statics.bvh().walks_groups(),
-        static_layers,
-        body_layers: &body_layers,
     };
     let hooks = &*hooks;
     let hook_panicked = AtomicBool::new(false);
@@ -284,10 +282,9 @@ fn store(body: &mut BodyEntry, outcome: BodyOutcome) {
     body.error = outcome.failure.map(CcdError::Toi);
 }
 
-/// The [`BodyState`] of an entry, with the shape given.
-fn state(body: &BodyEntry, proxy: ShapeProxy, core_radius: f32) -> BodyState {
+/// The [`BodyState`] of an entry.
+fn state(body: &BodyEntry) -> BodyState {
     BodyState {
-        proxy,
         local_center: body.sweep.local_center,
         mass: body.mass,
         inertia: body.inertia,
@@ -295,65 +292,46 @@ fn state(body: &BodyEntry, proxy: ShapeProxy, core_radius: f32) -> BodyState {
         friction: body.friction,
         sweep: body.sweep,
         velocity: (body.flags & HAS_VELOCITY != 0).then_some((body.velocity, body.angular)),
-        core_radius,
     }
 }
 
-/// Solves a compound body ([`solve_compound_body`]): its parts and combined mass from
-/// `shared.compounds`, each (part, target) pair filtered by the part's layers.
-fn solve_compound(
-    body: &mut BodyEntry,
-    shared: &Shared,
-    list: &[u32],
-    scratch: &mut Vec<u32>,
-    impacts: &mut Vec<geometry::ImpactRecord>,
-    (sensing, index): (&mut SensorLane, usize),
-) {
-    let Some(compound) = shared.compounds.find(body.entity) else {
-        body.error = Some(CcdError::InvalidBodyData);
-        return;
-    };
-    let (parts, layers) = shared.compounds.parts(compound);
-    if body.flags & HAS_MASS == 0 {
-        body.mass = compound.mass.mass;
-        body.inertia = compound.mass.inertia;
+/// What the solver may let a body hit: each part's [`CollisionLayers`] against the target's
+/// (the one place layers are filtered for solid targets), and the hooks on its impacts.
+struct Rules<'a> {
+    /// The layers of each part, as the parts are listed.
+    parts: &'a [CollisionLayers],
+    /// Each target's layers; empty when all have the default.
+    targets: &'a [CollisionLayers],
+    /// Whether any layers differ from the default: else every pair meets.
+    layered: bool,
+    /// The body, and the entity of each part's collider.
+    body: Entity,
+    colliders: &'a dyn Fn(u32) -> Entity,
+    accept: &'a (dyn Fn(Entity, Entity, &CandidateHit) -> bool + Sync),
+}
+
+impl BodyFilter for Rules<'_> {
+    #[inline]
+    fn interacts(&self, part: usize, target: u32) -> bool {
+        !self.layered || {
+            let target = self.targets.get(target as usize).copied();
+            let part = self.parts.get(part).copied();
+            part.unwrap_or_default()
+                .interacts(target.unwrap_or_default())
+        }
     }
-    let target_layers = |target: u32| {
-        shared
-            .static_layers
-            .get(target as usize)
-            .copied()
-            .unwrap_or_default()
-    };
-    let compound = Compound {
-        parts,
-        interacts: |part: usize, target: u32| layers[part].interacts(target_layers(target)),
-    };
-    let state = state(body, parts[0].proxy, parts[0].core_radius);
-    body.impacts = impacts.len() as u32;
-    let entry: &BodyEntry = body;
-    let accept = |hit: &CandidateHit| {
-        let collider = shared.compounds.collider(entry, hit.part);
-        (shared.accept)(entry.entity, collider, hit)
-    };
-    let outcome = traced(shared, sensing, index, |path| {
-        solve_compound_body_filtered(
-            &state,
-            compound,
-            shared.statics,
-            list,
-            shared.settings,
-            scratch,
-            impacts,
-            &accept,
-            path,
-        )
-    });
-    store(body, outcome);
+
+    fn accept(&self, hit: &CandidateHit) -> bool {
+        (self.accept)(self.body, (self.colliders)(hit.part), hit)
+    }
 }
 
 /// Bilateral advancement and resolution for the bodies of one lane; then the lane's lists of
 /// bodies to write back and bodies with impacts.
+///
+/// One path for every body: its parts are its own [`Collider`] (read in place) or, for a
+/// compound body, the parts [`Compounds`] placed in its frame, and the geometry layer's
+/// [`solve_body`] takes either.
 pub(crate) fn solve_lane(
     chunk: &mut [BodyEntry],
     lane: &mut Lane,
@@ -375,8 +353,12 @@ pub(crate) fn solve_lane(
     // The shapes of the bodies to solve are read from their colliders in batches: the
     // reads of one batch are independent, so their cache misses overlap instead of each
     // stalling a time of impact.
-    let placeholder = (ShapeProxy::from_parts(&[Vec2::ZERO], 0.0), 0.0);
-    let mut shapes = [placeholder; SOLVE_BATCH];
+    let placeholder = BodyPart {
+        proxy: ShapeProxy::from_parts(&[Vec2::ZERO], 0.0),
+        core_center: Vec2::ZERO,
+        core_radius: 0.0,
+    };
+    let mut own = [placeholder; SOLVE_BATCH];
     let mut batch = [0usize; SOLVE_BATCH];
     let mut next = 0;
     let (touch, mut touched) = (statics.worth_touching(), 0);
@@ -389,58 +371,55 @@ pub(crate) fn solve_lane(
             if body.error.is_none() && body.candidate_count > 0 {
                 // The targets' records, touched alongside the colliders so that these
                 // misses overlap too.
-                let start = body.candidates as usize;
-                let list = &candidates[start..start + body.candidate_count as usize];
-                if body.flags & COMPOUND != 0 {
-                    // Rare: solved at once, its impacts kept together as any body's.
-                    solve_compound(body, shared, list, scratch, impacts, (&mut *sensing, next));
-                    next += 1;
-                    continue;
-                }
                 if touch {
+                    let start = body.candidates as usize;
+                    let list = &candidates[start..start + body.candidate_count as usize];
                     touched ^= statics.touch(list);
                 }
-                match colliders.get(body.entity) {
-                    Ok(collider) => {
+                match shared.compounds.mass_of(body, colliders) {
+                    Ok((mass, part)) => {
                         if body.flags & HAS_MASS == 0 {
-                            let props = collider.mass_properties(1.0);
-                            body.mass = props.mass;
-                            body.inertia = props.inertia;
+                            body.mass = mass.mass;
+                            body.inertia = mass.inertia;
                         }
-                        shapes[n] = (*collider.proxy(), collider.core_radius());
+                        own[n] = part.unwrap_or(placeholder);
                         batch[n] = next;
                         n += 1;
                     }
-                    Err(_) => body.error = Some(CcdError::InvalidBodyData),
+                    Err(error) => body.error = Some(error),
                 }
             }
             next += 1;
         }
-        for (&index, &(proxy, core_radius)) in batch[..n].iter().zip(&shapes[..n]) {
+        for (&index, own) in batch[..n].iter().zip(&own[..n]) {
             let body = &mut chunk[index];
-            let state = state(body, proxy, core_radius);
             let start = body.candidates as usize;
             let list = &candidates[start..start + body.candidate_count as usize];
+            let (parts, part_layers) = shared.compounds.parts_of(body, own);
+            let own_layers = [(shared.body_layers)(body)];
+            let part_layers = part_layers.unwrap_or(&own_layers);
             body.impacts = impacts.len() as u32;
             let entry: &BodyEntry = body;
-            // The broad phase filtered the first sweep's candidates by layers; a sub-step's
-            // own query is not, so an impact with a target the layers rule out is refused
-            // here (the solver then ignores that target for the rest of the step).
-            let accept = |hit: &CandidateHit| {
-                let target = shared.static_layers.get(hit.target as usize);
-                let target = target.copied().unwrap_or_default();
-                (shared.body_layers)(entry).interacts(target)
-                    && (shared.accept)(entry.entity, entry.entity, hit)
+            let colliders = |part: u32| shared.compounds.collider(entry, part);
+            let rules = Rules {
+                parts: part_layers,
+                targets: shared.static_layers,
+                layered: !shared.static_layers.is_empty()
+                    || part_layers.iter().any(|l| *l != CollisionLayers::DEFAULT),
+                body: entry.entity,
+                colliders: &colliders,
+                accept: shared.accept,
             };
+            let state = state(entry);
             let outcome = traced(shared, sensing, index, |path| {
-                solve_body_filtered(
+                solve_body(
                     &state,
-                    shared.statics,
+                    parts,
+                    statics,
                     list,
                     shared.settings,
-                    scratch,
-                    impacts,
-                    &accept,
+                    (&mut *scratch, &mut *impacts),
+                    &rules,
                     path,
                 )
             });

@@ -96,12 +96,6 @@ impl BodyLayers<'_, '_, '_, '_> {
     }
 }
 
-/// Whether any body of `chunk` may have other than the default layers.
-#[inline]
-pub(crate) fn any_layered(chunk: &[BodyEntry]) -> bool {
-    chunk.iter().any(|b| b.flags & (HAS_LAYERS | COMPOUND) != 0)
-}
-
 /// The buffers of one lane: a contiguous run of bodies that one thread lists, queries,
 /// solves and writes back. Flat lists instead of one small vector per body: a few bytes per
 /// body instead of dozens, and nothing allocated once the lists have grown.

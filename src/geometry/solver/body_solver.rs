@@ -22,7 +22,6 @@ use crate::geometry::math::{Pose, left_perp};
 use crate::geometry::query::toi::{BodyFrame, ToiFailure};
 use crate::geometry::shape::proxy::ShapeProxy;
 use crate::geometry::solver::cull::reach_interval;
-pub use crate::geometry::solver::pair::BodyState;
 use crate::geometry::solver::pair::{Contact, PairOutcome, contact_patch, pair_toi};
 use crate::geometry::solver::response::{Response, patch_response};
 use crate::geometry::solver::sensor::PathPiece;
@@ -73,7 +72,7 @@ pub struct SolveSettings {
 pub struct ImpactRecord {
     /// Index of the target in the [`StaticSet`].
     pub target: u32,
-    /// Index of the body's part that hit it ([`solve_compound_body`]); 0 for [`solve_body`].
+    /// Index of the body's part that hit it (0 for a body of one collider).
     pub part: u32,
     /// Fraction of the whole step at which it happened.
     pub fraction: f32,
@@ -83,7 +82,7 @@ pub struct ImpactRecord {
     pub normal: Vec2,
 }
 
-/// An impact [`solve_body_filtered`] is about to respond to, as its filter sees it: the
+/// An impact [`solve_body`] is about to respond to, as its filter sees it: the
 /// earliest hit of a sweep, or, when that is at the sweep's start, each contact the body starts
 /// the sweep touching and is about to be responded to together with it.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -141,44 +140,77 @@ const ORDERED_TARGETS: usize = 32;
 /// The patch (world ends) of a contact a response acted on, by (target, part).
 type KnownPatch = (u32, u32, (Vec2, Vec2));
 
-/// One collider of a compound body: its shape in the body frame (the body's own collider, or
-/// a child's placed and scaled into the body frame).
+/// One collider of a body, in the body frame: its own collider, or a child's placed and
+/// scaled into the body frame. A body is a list of parts, at least one.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BodyPart {
     /// Shape in the body frame.
     pub proxy: ShapeProxy,
     /// Centre of this part's core circle in the body frame (m): its own centre of mass, so
-    /// that the circle lies inside the part ([`BodyState::core_radius`]).
+    /// that the circle lies inside the part. The solver falls back to that circle when the
+    /// part starts a sweep deep in a target (Box2D's fallback).
     pub core_center: Vec2,
-    /// Radius of this part's core circle (m).
+    /// Radius of the core circle (m): a quarter of the part's smallest extent about
+    /// `core_center`.
     pub core_radius: f32,
 }
 
-/// The colliders of a compound body, and which (part, target) pairs may hit each other.
-#[derive(Clone, Copy, Debug)]
-pub struct Compound<'a, F> {
-    /// The parts, at least one; those past the first `MAX_PARTS` (16) are ignored.
-    pub parts: &'a [BodyPart],
-    /// Whether part `part` (an index into `parts`) may hit target `target` (collision layers).
-    pub interacts: F,
+/// A body as the solver needs it besides its parts: its motion, mass and material.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BodyState {
+    /// Centre of mass in the body frame (m).
+    pub local_center: Vec2,
+    /// Mass (kg), positive.
+    pub mass: f32,
+    /// Rotational inertia about the centre of mass (kg m²), positive.
+    pub inertia: f32,
+    /// Restitution in `[0, 1]`.
+    pub restitution: f32,
+    /// Coulomb friction coefficient.
+    pub friction: f32,
+    /// Motion over the step, from the start pose to where the user moved the body.
+    pub sweep: Sweep,
+    /// The body's own velocity (m/s, rad/s), if it keeps one; otherwise the response acts on
+    /// the velocity implied by the step's displacement.
+    pub velocity: Option<(Vec2, f32)>,
 }
 
-/// The most parts of one body the solver sweeps: [`Compound::parts`] past it are ignored.
+/// What a caller lets a body hit: which (part, target) pairs may meet at all (collision
+/// layers, asked before a pair is searched) and which impacts it accepts (hooks, asked only
+/// about an impact the body is about to be responded to). `()` lets everything through.
+pub(crate) trait BodyFilter {
+    /// Whether part `part` of the body may hit target `target`.
+    fn interacts(&self, part: usize, target: u32) -> bool;
+    /// Whether the body is responded to at `hit`; a rejected (target, part) pair is ignored
+    /// for the rest of the step.
+    fn accept(&self, hit: &CandidateHit) -> bool;
+}
+
+impl BodyFilter for () {
+    #[inline(always)]
+    fn interacts(&self, _: usize, _: u32) -> bool {
+        true
+    }
+    #[inline(always)]
+    fn accept(&self, _: &CandidateHit) -> bool {
+        true
+    }
+}
+
+/// The most parts of one body the solver sweeps: parts past it are ignored.
 pub const MAX_PARTS: usize = 16;
 
-/// What the solver asks of a body's colliders: the one-collider body is its own single part,
-/// monomorphised so that its path does exactly what it did before parts existed.
+/// A body's parts as the solver reads them: the body with one collider is its own single
+/// part, monomorphised so that its path has no loop over parts.
 trait Parts {
     /// How many parts, at least 1.
     fn count(&self) -> usize;
-    /// The body as seen through `part`: its shape and core radius, the rest the body's.
-    fn body(&self, part: usize) -> &BodyState;
-    /// Whether `part` may hit `target`.
-    fn interacts(&self, part: usize, target: u32) -> bool;
+    /// Part `part`.
+    fn part(&self, part: usize) -> &BodyPart;
 }
 
 /// A body that is its own only collider.
-struct Single<'a>(&'a BodyState);
+struct Single<'a>(&'a BodyPart);
 
 impl Parts for Single<'_> {
     #[inline(always)]
@@ -186,184 +218,113 @@ impl Parts for Single<'_> {
         1
     }
     #[inline(always)]
-    fn body(&self, _: usize) -> &BodyState {
+    fn part(&self, _: usize) -> &BodyPart {
         self.0
     }
-    #[inline(always)]
-    fn interacts(&self, _: usize, _: u32) -> bool {
-        true
-    }
 }
 
-/// A compound body: one [`BodyState`] per part, so that the pair tests run unchanged on each
-/// (the sweep they are given is the body's; a part's `local_center` is its core circle's
-/// centre, which is all the pair tests read it for).
-struct Many<F> {
-    states: SmallVec<[BodyState; 4]>,
-    interacts: F,
-}
+/// A body of several colliders.
+struct Many<'a>(&'a [BodyPart]);
 
-impl<F: Fn(usize, u32) -> bool> Parts for Many<F> {
+impl Parts for Many<'_> {
     fn count(&self) -> usize {
-        self.states.len()
+        self.0.len()
     }
-    fn body(&self, part: usize) -> &BodyState {
-        &self.states[part]
-    }
-    fn interacts(&self, part: usize, target: u32) -> bool {
-        (self.interacts)(part, target)
+    fn part(&self, part: usize) -> &BodyPart {
+        &self.0[part]
     }
 }
 
-/// [`solve_body`] for a body made of several colliders moving as one rigid body: each part is
-/// swept with the body's motion, the earliest hit over every (part, target) pair wins (ties to
-/// the lower target, then the lower part), and the response acts at the hitting part's contact
-/// with the body's mass and inertia (`body`'s, the combined ones). `body.proxy` and
-/// `body.core_radius` are not used: the parts replace them (without parts, the body's own
-/// shape is its only part, as in [`solve_body`]).
-#[cfg(test)]
-pub fn solve_compound_body(
-    body: &BodyState,
-    compound: Compound<'_, impl Fn(usize, u32) -> bool>,
-    statics: &StaticSet,
-    candidates: &[u32],
-    settings: &SolveSettings,
-    scratch: &mut Vec<u32>,
-    impacts: &mut Vec<ImpactRecord>,
-) -> BodyOutcome {
-    let accept_all = |_: &CandidateHit| true;
-    solve_compound_body_filtered(
-        body,
-        compound,
-        statics,
-        candidates,
-        settings,
-        scratch,
-        impacts,
-        &accept_all,
-        None,
-    )
-}
-
-/// [`solve_compound_body`] with a filter on its impacts and the path it travelled, as
-/// [`solve_body_filtered`]: a rejected (target, part) pair is ignored for the rest of the step.
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn solve_compound_body_filtered(
-    body: &BodyState,
-    compound: Compound<'_, impl Fn(usize, u32) -> bool>,
-    statics: &StaticSet,
-    candidates: &[u32],
-    settings: &SolveSettings,
-    scratch: &mut Vec<u32>,
-    impacts: &mut Vec<ImpactRecord>,
-    accept: &impl Fn(&CandidateHit) -> bool,
-    path: Option<&mut Vec<PathPiece>>,
-) -> BodyOutcome {
-    let parts = &compound.parts[..compound.parts.len().min(MAX_PARTS)];
-    if parts.is_empty() {
-        return solve_body_filtered(
-            body, statics, candidates, settings, scratch, impacts, accept, path,
-        );
-    }
-    let states = parts
-        .iter()
-        .map(|part| BodyState {
-            proxy: part.proxy,
-            local_center: part.core_center,
-            core_radius: part.core_radius,
-            ..*body
-        })
-        .collect();
-    let many = Many {
-        states,
-        interacts: compound.interacts,
-    };
-    solve(
-        body, &many, statics, candidates, settings, scratch, impacts, accept, path,
-    )
-}
-
-/// Sweeps one body against the static world and resolves its impacts.
+/// Sweeps one body, made of `parts` moving as one rigid body, against the static world and
+/// resolves its impacts.
 ///
-/// `candidates` are the targets overlapping the body's swept bound (ascending), as the broad
-/// phase found them; sub-steps query `statics` again with their new sweeps. `scratch` is a
-/// reusable buffer; the impacts found are appended to `impacts`, in time order, and counted in
-/// the outcome. Deterministic: the outcome depends only on the inputs (targets are visited in
-/// an order that depends only on them, ties to the lower index).
+/// Each part is swept with the body's motion; the earliest hit over every (part, target) pair
+/// wins (ties to the lower target, then the lower part), and the response acts at the hitting
+/// part's contact with the body's mass and inertia. `candidates` are the targets overlapping
+/// the body's swept bound (ascending), as the broad phase found them; sub-steps query
+/// `statics` again with their new sweeps. `scratch` is a reusable buffer; the impacts found are
+/// appended to `impacts`, in time order, and counted in the outcome. Deterministic: the
+/// outcome depends only on the inputs (targets are visited in an order that depends only on
+/// them, ties to the lower index).
+///
+/// `filter` decides which (part, target) pairs are searched at all and which impacts the body
+/// is responded to (see [`CandidateHit`]): a rejected impact's (target, part) pair is ignored
+/// for the rest of the step, every sub-step included, as Box2D's `b2PreContinuousFcn`
+/// disables the pair, and the sweep is searched again without it. Only impacts are put to
+/// `accept`, never pairs in the search, so it costs nothing until a body hits something.
 ///
 /// Contacts the body starts a sweep with are responded to together as soon as one of them is
 /// driven into (Gauss-Seidel over them, [`CONTACT_PASSES`]), and the sweep goes on from there
 /// in both modes; an impact with a target it was not touching ends the step in
 /// [`Resolution::Clamp`]. Every loop is bounded: [`MAX_SUBSTEPS`] sub-steps, and
 /// [`MAX_CONTACTS_AT_ONE_POSE`] responses in a row without advancing, after which the body is
-/// wedged: it stays where it is, at rest.
+/// wedged: it stays where it is, at rest. Also appends to `path` (when given) each stretch of
+/// the step the body travelled, in order ([`PathPiece`]): what sensors are swept along.
 ///
-/// Every impact is accepted; the plugin calls [`solve_body_filtered`] with its hooks.
-#[cfg(test)]
-pub fn solve_body(
-    body: &BodyState,
-    statics: &StaticSet,
-    candidates: &[u32],
-    settings: &SolveSettings,
-    scratch: &mut Vec<u32>,
-    impacts: &mut Vec<ImpactRecord>,
-) -> BodyOutcome {
-    let accept_all = |_: &CandidateHit| true;
-    solve_body_filtered(
-        body,
-        statics,
-        candidates,
-        settings,
-        scratch,
-        impacts,
-        &accept_all,
-        None,
-    )
-}
-
-/// [`solve_body`] with a filter on its impacts: `accept` sees each impact before the body is
-/// responded to (see [`CandidateHit`]); a target it rejects is ignored by this body for the
-/// rest of the step, every sub-step included, as Box2D's `b2PreContinuousFcn` disables the
-/// pair, and the sweep is searched again without it. Only impacts are filtered, never pairs
-/// in the search, so a filter costs nothing until a body hits something. Also appends to
-/// `path` (when given) each stretch of the step the body travelled, in order
-/// ([`PathPiece`]): what sensors are swept along.
-#[inline]
+/// A body without parts has nothing to hit: it ends where its sweep does.
 #[allow(clippy::too_many_arguments)]
-pub(crate) fn solve_body_filtered(
+pub(crate) fn solve_body(
     body: &BodyState,
+    parts: &[BodyPart],
     statics: &StaticSet,
     candidates: &[u32],
     settings: &SolveSettings,
-    scratch: &mut Vec<u32>,
-    impacts: &mut Vec<ImpactRecord>,
-    accept: &impl Fn(&CandidateHit) -> bool,
+    (scratch, impacts): (&mut Vec<u32>, &mut Vec<ImpactRecord>),
+    filter: &impl BodyFilter,
     path: Option<&mut Vec<PathPiece>>,
 ) -> BodyOutcome {
-    solve(
-        body,
-        &Single(body),
-        statics,
-        candidates,
-        settings,
-        scratch,
-        impacts,
-        accept,
-        path,
-    )
+    let parts = &parts[..parts.len().min(MAX_PARTS)];
+    match parts {
+        [] => {
+            let mut path = path;
+            trace(&mut path, &body.sweep, 1.0, 0.0, 1.0);
+            BodyOutcome {
+                position: body.sweep.pose_at(1.0).p,
+                angle: body.sweep.a1,
+                velocity: body.velocity,
+                impacts: 0,
+                substeps: 0,
+                started_overlapping: false,
+                failure: None,
+                nudged: false,
+            }
+        }
+        [one] => solve(
+            body,
+            &Single(one),
+            statics,
+            candidates,
+            settings,
+            scratch,
+            impacts,
+            filter,
+            path,
+        ),
+        _ => solve(
+            body,
+            &Many(parts),
+            statics,
+            candidates,
+            settings,
+            scratch,
+            impacts,
+            filter,
+            path,
+        ),
+    }
 }
 
 /// The farthest core point of any part from `center`.
 #[inline(always)]
 fn parts_reach(parts: &impl Parts, center: Vec2) -> f32 {
-    let mut reach = parts.body(0).proxy.max_distance_from(center);
+    let mut reach = parts.part(0).proxy.max_distance_from(center);
     for part in 1..parts.count() {
-        reach = reach.max(parts.body(part).proxy.max_distance_from(center));
+        reach = reach.max(parts.part(part).proxy.max_distance_from(center));
     }
     reach
 }
 
-/// [`solve_body_filtered`] over the parts of a body.
+/// [`solve_body`] over the parts of a body.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn solve(
@@ -374,7 +335,7 @@ fn solve(
     settings: &SolveSettings,
     scratch: &mut Vec<u32>,
     impacts: &mut Vec<ImpactRecord>,
-    accept: &impl Fn(&CandidateHit) -> bool,
+    filter: &impl BodyFilter,
     mut path: Option<&mut Vec<PathPiece>>,
 ) -> BodyOutcome {
     let slop = settings.linear_slop;
@@ -412,9 +373,9 @@ fn solve(
             candidates
         } else {
             scratch.clear();
-            let mut bounds = parts.body(0).proxy.swept_aabb(&sweep);
+            let mut bounds = parts.part(0).proxy.swept_aabb(&sweep);
             for part in 1..n {
-                bounds = bounds.union(parts.body(part).proxy.swept_aabb(&sweep));
+                bounds = bounds.union(parts.part(part).proxy.swept_aabb(&sweep));
             }
             statics.candidates_in(bounds, slop, scratch);
             scratch
@@ -434,7 +395,7 @@ fn solve(
             if n == 1 {
                 sweep_reach
             } else {
-                parts.body(part).proxy.max_distance_from(sweep.local_center)
+                parts.part(part).proxy.max_distance_from(sweep.local_center)
             }
         };
         // Visit the targets in the order the body can first reach them (branch and bound):
@@ -455,10 +416,10 @@ fn solve(
                     continue;
                 };
                 for part in 0..n {
-                    if !parts.interacts(part, index) {
+                    if !filter.interacts(part, index) {
                         continue;
                     }
-                    let proxy = &parts.body(part).proxy;
+                    let proxy = &parts.part(part).proxy;
                     let reach = part_reach(part);
                     if let Some(window) = reach_interval(reach, proxy, &sweep, key, slop) {
                         // Insertion by fraction after the pairs in (target, part) order:
@@ -487,7 +448,7 @@ fn solve(
                 order[visit]
             } else {
                 let (index, part) = (list[visit / n], visit % n);
-                if !parts.interacts(part, index) {
+                if !filter.interacts(part, index) {
                     continue;
                 }
                 ((0.0, 1.0), index, part as u32)
@@ -532,7 +493,7 @@ fn solve(
                 (reach, BodyFrame::with_reach(&sweep, reach))
             };
             match pair_toi(
-                parts.body(part as usize),
+                parts.part(part as usize),
                 reach,
                 &sweep,
                 frame_of_part,
@@ -621,7 +582,7 @@ fn solve(
                     },
                     substep: result.substeps,
                 };
-                if !accept(&candidate) {
+                if !filter.accept(&candidate) {
                     vetoed.push((target, target_part));
                 }
             }
@@ -686,7 +647,7 @@ fn solve(
                     q: statics.records()[index as usize].key.rotation,
                 };
                 let contact = (normal, point);
-                let proxy = &parts.body(part as usize).proxy;
+                let proxy = &parts.part(part as usize).proxy;
                 contact_patch(proxy, pose, &target.proxy, target_pose, contact, slop)
             });
             known.push((index, part, (a, b)));
@@ -815,43 +776,73 @@ mod tests {
         statics
     }
 
-    /// Solves one body against `statics` (every target a candidate) in `mode`.
-    fn solve(body: &BodyState, statics: &StaticSet, mode: Resolution) -> BodyOutcome {
-        let candidates: Vec<u32> = (0..statics.items().len() as u32).collect();
-        let settings = SolveSettings {
+    /// A body of one collider: its state and its one part.
+    #[derive(Clone, Copy, Debug)]
+    struct Body {
+        state: BodyState,
+        part: BodyPart,
+    }
+
+    /// The settings of a 60 Hz step at the default slop.
+    fn settings(mode: Resolution) -> SolveSettings {
+        SolveSettings {
             mode,
             linear_slop: crate::geometry::LINEAR_SLOP,
             dt: 1.0 / 60.0,
-        };
+        }
+    }
+
+    /// Solves one body against `statics` (every target a candidate) in `mode`.
+    fn solve(body: &Body, statics: &StaticSet, mode: Resolution) -> BodyOutcome {
+        let candidates: Vec<u32> = (0..statics.items().len() as u32).collect();
         solve_body(
-            body,
+            &body.state,
+            &[body.part],
             statics,
             &candidates,
-            &settings,
-            &mut Vec::new(),
-            &mut Vec::new(),
+            &settings(mode),
+            (&mut Vec::new(), &mut Vec::new()),
+            &(),
+            None,
         )
     }
 
     /// A body at `(position, angle)` moving with `(v, w)` for a 60 Hz step.
-    fn moving(proxy: ShapeProxy, position: Vec2, angle: f32, v: Vec2, w: f32) -> BodyState {
+    fn moving(proxy: ShapeProxy, position: Vec2, angle: f32, v: Vec2, w: f32) -> Body {
         let dt = 1.0 / 60.0;
-        BodyState {
-            proxy,
-            local_center: Vec2::ZERO,
-            mass: 0.05,
-            inertia: 0.002,
-            restitution: 0.5,
-            friction: 0.2,
-            sweep: Sweep::new(
-                Vec2::ZERO,
-                position,
-                angle,
-                position + v * dt,
-                angle + w * dt,
-            ),
-            velocity: Some((v, w)),
-            core_radius: 0.25 * proxy.radius,
+        Body {
+            state: BodyState {
+                local_center: Vec2::ZERO,
+                mass: 0.05,
+                inertia: 0.002,
+                restitution: 0.5,
+                friction: 0.2,
+                sweep: Sweep::new(
+                    Vec2::ZERO,
+                    position,
+                    angle,
+                    position + v * dt,
+                    angle + w * dt,
+                ),
+                velocity: Some((v, w)),
+            },
+            part: BodyPart {
+                proxy,
+                core_center: Vec2::ZERO,
+                core_radius: 0.25 * proxy.radius,
+            },
+        }
+    }
+
+    /// A filter of the tests: which (part, target) pairs meet, which impacts are accepted.
+    struct Filter<I, A>(I, A);
+
+    impl<I: Fn(usize, u32) -> bool, A: Fn(&CandidateHit) -> bool> BodyFilter for Filter<I, A> {
+        fn interacts(&self, part: usize, target: u32) -> bool {
+            (self.0)(part, target)
+        }
+        fn accept(&self, hit: &CandidateHit) -> bool {
+            (self.1)(hit)
         }
     }
 
@@ -873,10 +864,10 @@ mod tests {
             // Nothing stops it: it ends where its motion takes it, a step's flight away.
             assert_eq!(out.impacts, 0, "{mode:?}: {out:?}");
             assert!(
-                out.position.distance(body.sweep.c1) < 1e-5,
+                out.position.distance(body.state.sweep.c1) < 1e-5,
                 "{mode:?}: ended at {} instead of {}",
                 out.position,
-                body.sweep.c1
+                body.state.sweep.c1
             );
         }
     }
@@ -896,7 +887,7 @@ mod tests {
         for mode in [Resolution::Clamp, Resolution::SubStep { max_substeps: 4 }] {
             let out = solve(&body, &floor(), mode);
             assert!(
-                out.position.distance(body.sweep.c0) > 1e-3,
+                out.position.distance(body.state.sweep.c0) > 1e-3,
                 "{mode:?}: did not move: {out:?}"
             );
             assert!(out.failure.is_none(), "{mode:?}: {out:?}");
@@ -977,30 +968,22 @@ mod tests {
 
     /// Solves `parts` as one body (every pair allowed), returning the outcome and its impacts.
     fn solve_parts(
-        body: &BodyState,
+        body: &Body,
         parts: &[BodyPart],
         statics: &StaticSet,
         mode: Resolution,
     ) -> (BodyOutcome, Vec<ImpactRecord>) {
         let candidates: Vec<u32> = (0..statics.items().len() as u32).collect();
-        let settings = SolveSettings {
-            mode,
-            linear_slop: crate::geometry::LINEAR_SLOP,
-            dt: 1.0 / 60.0,
-        };
         let mut impacts = Vec::new();
-        let compound = Compound {
+        let out = solve_body(
+            &body.state,
             parts,
-            interacts: |_: usize, _: u32| true,
-        };
-        let out = solve_compound_body(
-            body,
-            compound,
             statics,
             &candidates,
-            &settings,
-            &mut Vec::new(),
-            &mut impacts,
+            &settings(mode),
+            (&mut Vec::new(), &mut impacts),
+            &(),
+            None,
         );
         (out, impacts)
     }
@@ -1078,9 +1061,9 @@ mod tests {
         assert!(winners[0] > 0 && winners[1] > 0, "{winners:?}");
     }
 
-    /// One part is the one-collider body: the compound solve gives the same bits.
+    /// The one-collider path is the many-part path with one part: the same bits.
     #[test]
-    fn a_one_part_compound_is_the_plain_body() {
+    fn the_single_part_path_is_the_many_part_path_with_one_part() {
         let mut statics = StaticSet::default();
         statics.rebuild([wall(2.0)]);
         let shape = Shape::from(Polygon::rectangle(0.3, 0.1).unwrap());
@@ -1091,32 +1074,27 @@ mod tests {
             Vec2::new(200.0, 30.0),
             25.0,
         );
-        body.core_radius = 0.025;
-        let one = BodyPart {
-            proxy: body.proxy,
-            core_center: body.local_center,
-            core_radius: body.core_radius,
-        };
+        body.part.core_radius = 0.025;
         for mode in [Resolution::Clamp, Resolution::SubStep { max_substeps: 4 }] {
-            let mut impacts = Vec::new();
-            let candidates = [0];
-            let settings = SolveSettings {
-                mode,
-                linear_slop: crate::geometry::LINEAR_SLOP,
-                dt: 1.0 / 60.0,
+            let run = |parts: &dyn Fn(&mut Vec<u32>, &mut Vec<ImpactRecord>) -> BodyOutcome| {
+                let mut impacts = Vec::new();
+                let out = parts(&mut Vec::new(), &mut impacts);
+                (out, impacts)
             };
-            let out = solve_body(
-                &body,
-                &statics,
-                &candidates,
-                &settings,
-                &mut Vec::new(),
-                &mut impacts,
-            );
-            let (compound, compound_impacts) = solve_parts(&body, &[one], &statics, mode);
-            assert!(out.impacts > 0, "{mode:?}: the case must hit");
-            assert_eq!(out, compound, "{mode:?}");
-            assert_eq!(impacts, compound_impacts, "{mode:?}");
+            let single = run(&|scratch, impacts| {
+                let (candidates, settings) = ([0], settings(mode));
+                let one = Single(&body.part);
+                let args = (&candidates[..], &settings, scratch, impacts);
+                super::solve(&body.state, &one, &statics, args.0, args.1, args.2, args.3, &(), None)
+            });
+            let many = run(&|scratch, impacts| {
+                let (candidates, settings) = ([0], settings(mode));
+                let one = Many(core::slice::from_ref(&body.part));
+                let args = (&candidates[..], &settings, scratch, impacts);
+                super::solve(&body.state, &one, &statics, args.0, args.1, args.2, args.3, &(), None)
+            });
+            assert!(single.0.impacts > 0, "{mode:?}: the case must hit");
+            assert_eq!(single, many, "{mode:?}");
         }
     }
 
@@ -1173,25 +1151,16 @@ mod tests {
             Vec2::new(200.0, 0.0),
             0.0,
         );
-        let candidates = [0];
-        let settings = SolveSettings {
-            mode: Resolution::Clamp,
-            linear_slop: crate::geometry::LINEAR_SLOP,
-            dt: 1.0 / 60.0,
-        };
         let mut impacts = Vec::new();
-        let compound = Compound {
-            parts: &parts,
-            interacts: |part: usize, _: u32| part != 0,
-        };
-        let out = solve_compound_body(
-            &body,
-            compound,
+        let out = solve_body(
+            &body.state,
+            &parts,
             &statics,
-            &candidates,
-            &settings,
-            &mut Vec::new(),
-            &mut impacts,
+            &[0],
+            &settings(Resolution::Clamp),
+            (&mut Vec::new(), &mut impacts),
+            &Filter(|part: usize, _: u32| part != 0, |_: &CandidateHit| true),
+            None,
         );
         assert_eq!(impacts.len(), 1, "{impacts:?}");
         assert_eq!(impacts[0].part, 1);
@@ -1217,26 +1186,22 @@ mod tests {
         statics.rebuild([wall(1.0), wall(1.5), wall(0.5)]);
         let ball = Shape::from(Circle::new(0.1).unwrap()).proxy();
         let mut body = moving(ball, Vec2::new(1.25, 0.0), 0.0, Vec2::new(120.0, 0.0), 0.0);
-        body.restitution = 1.0;
-        let settings = SolveSettings {
-            mode: Resolution::SubStep { max_substeps: 8 },
-            linear_slop: crate::geometry::LINEAR_SLOP,
-            dt: 1.0 / 60.0,
-        };
+        body.state.restitution = 1.0;
+        let settings = settings(Resolution::SubStep { max_substeps: 8 });
         let asked = core::cell::RefCell::new(Vec::new());
         let accept = |hit: &CandidateHit| {
             asked.borrow_mut().push(hit.target);
             hit.target != 0
         };
         let mut impacts = Vec::new();
-        let out = solve_body_filtered(
-            &body,
+        let out = solve_body(
+            &body.state,
+            &[body.part],
             &statics,
             &[0, 1, 2],
             &settings,
-            &mut Vec::new(),
-            &mut impacts,
-            &accept,
+            (&mut Vec::new(), &mut impacts),
+            &Filter(|_: usize, _: u32| true, accept),
             None,
         );
         // 2 m a step: 0.145 m to wall 1, 0.79 m back to wall 2 through wall 0 (asked), 0.79 m
@@ -1270,7 +1235,6 @@ mod tests {
             0.3,
         );
         let body = BodyState {
-            proxy,
             local_center: Vec2::ZERO,
             mass: 1.0,
             inertia: 1e-3,
@@ -1278,23 +1242,25 @@ mod tests {
             friction: 0.0,
             sweep,
             velocity: Some((Vec2::new(0.0, -3e38), 0.0)),
+        };
+        let part = BodyPart {
+            proxy,
+            core_center: Vec2::ZERO,
             core_radius: 0.125,
         };
-        let settings = SolveSettings {
-            mode: Resolution::Clamp,
-            linear_slop: 0.005,
-            dt: 1.0 / 60.0,
-        };
+        let settings = settings(Resolution::Clamp);
         let mut candidates = Vec::new();
         statics.candidates(&proxy, &sweep, settings.linear_slop, &mut candidates);
         let mut impacts = Vec::new();
         let out = solve_body(
             &body,
+            &[part],
             &statics,
             &candidates,
             &settings,
-            &mut Vec::new(),
-            &mut impacts,
+            (&mut Vec::new(), &mut impacts),
+            &(),
+            None,
         );
         assert_eq!(out.failure, Some(ToiFailure::ResponseOverflow), "{out:?}");
         assert_eq!(impacts.len(), 1);
@@ -1318,22 +1284,27 @@ mod tests {
             v(0.24945575, -0.2181695),
         ];
         let local_center = v(0.09509212, 0.0);
-        let body = BodyState {
-            proxy: ShapeProxy::from_parts(&rod, 0.0),
-            local_center,
-            mass: 0.007905621,
-            inertia: 0.00016288512,
-            restitution: 0.0036303997,
-            friction: 0.48673043,
-            sweep: Sweep {
+        let body = Body {
+            state: BodyState {
                 local_center,
-                c0: v(-18.379997, -24.78403),
-                c1: v(-18.420935, -24.787048),
-                a0: 2.7281969,
-                a1: 2.7424622,
+                mass: 0.007905621,
+                inertia: 0.00016288512,
+                restitution: 0.0036303997,
+                friction: 0.48673043,
+                sweep: Sweep {
+                    local_center,
+                    c0: v(-18.379997, -24.78403),
+                    c1: v(-18.420935, -24.787048),
+                    a0: 2.7281969,
+                    a1: 2.7424622,
+                },
+                velocity: Some((v(-2.4240878, -0.10633657), 0.85592186)),
             },
-            velocity: Some((v(-2.4240878, -0.10633657), 0.85592186)),
-            core_radius: 0.00125,
+            part: BodyPart {
+                proxy: ShapeProxy::from_parts(&rod, 0.0),
+                core_center: local_center,
+                core_radius: 0.00125,
+            },
         };
         let mut statics = StaticSet::default();
         statics.rebuild([StaticItem {

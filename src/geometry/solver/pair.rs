@@ -19,34 +19,10 @@ use crate::geometry::query::toi::{
     time_of_impact_framed,
 };
 use crate::geometry::shape::proxy::ShapeProxy;
+use crate::geometry::solver::body_solver::BodyPart;
 use crate::geometry::solver::cull::out_of_reach;
 use crate::geometry::solver::static_set::{StaticItem, TargetFrame};
 use crate::geometry::sweep::Sweep;
-
-/// A body as the solver needs it.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct BodyState {
-    /// Shape in the body frame.
-    pub proxy: ShapeProxy,
-    /// Centre of mass in the body frame (m).
-    pub local_center: Vec2,
-    /// Mass (kg), positive.
-    pub mass: f32,
-    /// Rotational inertia about the centre of mass (kg m²), positive.
-    pub inertia: f32,
-    /// Restitution in `[0, 1]`.
-    pub restitution: f32,
-    /// Coulomb friction coefficient.
-    pub friction: f32,
-    /// Motion over the step, from the start pose to where the user moved the body.
-    pub sweep: Sweep,
-    /// The body's own velocity (m/s, rad/s), if it keeps one; otherwise the response acts on
-    /// the velocity implied by the step's displacement.
-    pub velocity: Option<(Vec2, f32)>,
-    /// Radius of the core circle used when the body starts a step deep in a target
-    /// (Box2D's fallback: a quarter of the shape's smallest extent).
-    pub core_radius: f32,
-}
 
 /// A contact a pair test found: where (world), the unit normal toward the target, the surface
 /// separation, and the ends of its contact patch (world) when the test needed them.
@@ -124,7 +100,7 @@ fn patch_approaching(sweep: &Sweep, patch: (Vec2, Vec2), normal: Vec2, threshold
 // Hot, and called from `solve_body` in another module (so possibly another codegen unit).
 #[inline]
 pub(super) fn pair_toi(
-    body: &BodyState,
+    part: &BodyPart,
     reach: f32,
     sweep: &Sweep,
     body_frame: BodyFrame,
@@ -134,14 +110,14 @@ pub(super) fn pair_toi(
     (t_min, t_max): (f32, f32),
     known_patch: Option<(Vec2, Vec2)>,
 ) -> PairOutcome {
-    if out_of_reach(reach, &body.proxy, sweep, t_min, t_max, target, frame, slop) {
+    if out_of_reach(reach, &part.proxy, sweep, t_min, t_max, target, frame, slop) {
         return PairOutcome::Clear {
             overlapping: false,
             touch: None,
         };
     }
     let target_sweep = Sweep::stationary(Vec2::ZERO, target.position, target.angle);
-    let mut input = ToiInput::new(body.proxy, *sweep, target.proxy, target_sweep);
+    let mut input = ToiInput::new(part.proxy, *sweep, target.proxy, target_sweep);
     input.max_fraction = t_max;
     input.config = ToiConfig {
         linear_slop: slop,
@@ -154,7 +130,7 @@ pub(super) fn pair_toi(
     // A contact at the start: a hit at 0, or an overlap.
     let overlapping = out.separation < 0.0;
     if out.normal == Vec2::ZERO {
-        return core_fallback(body, sweep, target, slop, input);
+        return core_fallback(part, sweep, target, slop, input);
     }
     // The ends of the contact patch, where the response will act: deciding at the
     // same points as the response (not at the query's one closest point) means that
@@ -162,7 +138,7 @@ pub(super) fn pair_toi(
     // response has just resolved is not found approaching again. Not needed when the
     // query's point moves away by more than the turn could make any other point of the
     // body approach (`spread`): then no end approaches either.
-    let spread = sweep.angular_motion().abs() * 2.0 * (reach + body.proxy.radius);
+    let spread = sweep.angular_motion().abs() * 2.0 * (reach + part.proxy.radius);
     let linear = sweep.linear_motion();
     let turn_at = |p: Vec2| sweep.angular_motion() * left_perp(p - sweep.c0);
     let apart = (linear + turn_at(out.point)).dot(out.normal) < -spread;
@@ -179,7 +155,7 @@ pub(super) fn pair_toi(
                 q: frame.toi.rotation(),
             };
             let contact = (out.normal, out.point);
-            contact_patch(&body.proxy, pose, &target.proxy, target_pose, contact, slop)
+            contact_patch(&part.proxy, pose, &target.proxy, target_pose, contact, slop)
         })
     });
     let start = Contact {
@@ -225,7 +201,7 @@ pub(super) fn pair_toi(
     // band need).
     let tolerance = separation_tolerance(slop);
     let start = out.separation.min(slop);
-    let core_distance = out.separation + body.proxy.radius + target.proxy.radius;
+    let core_distance = out.separation + part.proxy.radius + target.proxy.radius;
     let finest = FINEST_TOLERANCE * tolerance;
     if core_distance < 4.0 * finest {
         // No band fits between the cores (a sharp corner a few micrometres from the
@@ -300,17 +276,17 @@ fn settled(out: &ToiOutput, overlapping: bool) -> Option<PairOutcome> {
 }
 
 /// Box2D's fallback for a body whose core overlaps the target's at the start: the same query
-/// with a small circle at the centre of mass ([`BodyState::core_radius`]). Motion that drives
+/// with a small circle at the centre of mass ([`BodyPart::core_radius`]). Motion that drives
 /// that circle in is stopped at 0, and so is motion that takes a centre already inside a
 /// polygon target further in across its nearest face ([`exit_face`]); other motion goes on.
 fn core_fallback(
-    body: &BodyState,
+    part: &BodyPart,
     sweep: &Sweep,
     target: &StaticItem,
     slop: f32,
     mut input: ToiInput,
 ) -> PairOutcome {
-    input.proxy_a = ShapeProxy::from_parts(&[body.local_center], body.core_radius);
+    input.proxy_a = ShapeProxy::from_parts(&[part.core_center], part.core_radius);
     let out = time_of_impact(&input);
     if let Some(settled) = settled(&out, true) {
         return settled;
@@ -440,20 +416,14 @@ mod tests {
         let proxy = Shape::from(Polygon::rectangle(0.5, 0.5).unwrap()).proxy();
         let start = Vec2::new(0.0, height);
         let sweep = Sweep::new(Vec2::ZERO, start, 0.0, start + motion, 0.0);
-        let body = BodyState {
+        let part = BodyPart {
             proxy,
-            local_center: Vec2::ZERO,
-            mass: 1.0,
-            inertia: 0.1,
-            restitution: 0.0,
-            friction: 0.0,
-            sweep,
-            velocity: None,
+            core_center: Vec2::ZERO,
             core_radius: 0.125,
         };
         let reach = proxy.max_distance_from(Vec2::ZERO);
         pair_toi(
-            &body,
+            &part,
             reach,
             &sweep,
             BodyFrame::with_reach(&sweep, reach),
