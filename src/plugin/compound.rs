@@ -68,30 +68,32 @@ impl Compounds {
     }
 
     /// The mass properties at unit density of the swept body `entry`, about its centre of
-    /// mass, and, unless it is compound, its one part: its own [`Collider`], read in place.
-    pub(crate) fn mass_of(
+    /// mass; unless it is compound, also its one part, its own [`Collider`] (read in place),
+    /// into `own`.
+    #[inline]
+    pub(crate) fn read(
         &self,
         entry: &BodyEntry,
         colliders: &Query<&Collider, Without<StaticCollider>>,
-    ) -> Result<(MassProperties, Option<BodyPart>), CcdError> {
+        own: &mut BodyPart,
+    ) -> Result<MassProperties, CcdError> {
         if entry.flags & COMPOUND != 0 {
             let body = self.find(entry.entity).ok_or(CcdError::InvalidBodyData)?;
-            return Ok((body.mass, None));
+            return Ok(body.mass);
         }
         let collider = colliders
             .get(entry.entity)
             .map_err(|_| CcdError::InvalidBodyData)?;
         let mass = collider.mass_properties(1.0);
-        let part = BodyPart {
-            proxy: *collider.proxy(),
-            core_center: mass.center,
-            core_radius: collider.core_radius(),
-        };
-        Ok((mass, Some(part)))
+        own.proxy = *collider.proxy();
+        own.core_center = mass.center;
+        own.core_radius = collider.core_radius();
+        Ok(mass)
     }
 
     /// The parts of the swept body `entry` and their layers: `own`, its own collider's part
-    /// ([`Self::mass_of`]), with the body's layers (`None`) unless it is compound.
+    /// ([`Self::read`]), with the body's layers (`None`) unless it is compound.
+    #[inline]
     pub(crate) fn parts_of<'a>(
         &'a self,
         entry: &BodyEntry,

@@ -18,8 +18,8 @@ use super::parallel::{MAX_ITEMS, hand_out, pool, workers};
 use super::record::step_length;
 use super::sensors::{SensorLane, SensorWorld, sense_lane};
 use super::workspace::{
-    BodyEntry, BodyLayers, CcdWorkspace, HAS_MASS, HAS_VELOCITY, Lane, LayersOf, NUDGED,
-    OVERLAPPING, WAS_CLEAR, Warned,
+    BodyEntry, BodyLayers, CcdWorkspace, HAS_LAYERS, HAS_MASS, HAS_VELOCITY, Lane, LayersOf,
+    NUDGED, OVERLAPPING, WAS_CLEAR, Warned,
 };
 use super::write::{WriteLookups, WriteQuery, write_lane};
 use super::{
@@ -250,6 +250,7 @@ pub(crate) struct Shared<'a> {
 
 /// Runs `solve` on the body at `index` of the lane, giving it the lane's path buffer when the
 /// world has sensors, and notes the stretch of path it traced.
+#[inline(always)]
 fn traced(
     shared: &Shared,
     sensing: &mut SensorLane,
@@ -298,31 +299,28 @@ fn state(body: &BodyEntry) -> BodyState {
 /// What the solver may let a body hit: each part's [`CollisionLayers`] against the target's
 /// (the one place layers are filtered for solid targets), and the hooks on its impacts.
 struct Rules<'a> {
-    /// The layers of each part, as the parts are listed.
-    parts: &'a [CollisionLayers],
-    /// Each target's layers; empty when all have the default.
-    targets: &'a [CollisionLayers],
-    /// Whether any layers differ from the default: else every pair meets.
-    layered: bool,
-    /// The body, and the entity of each part's collider.
-    body: Entity,
-    colliders: &'a dyn Fn(u32) -> Entity,
-    accept: &'a (dyn Fn(Entity, Entity, &CandidateHit) -> bool + Sync),
+    /// The layers of each part, as the parts are listed; `None` when neither the body nor any
+    /// target has other than the default, so that every pair meets.
+    layers: Option<(&'a [CollisionLayers], &'a [CollisionLayers])>,
+    /// The body entry, for the entities the hooks see.
+    body: &'a BodyEntry,
+    shared: &'a Shared<'a>,
 }
 
 impl BodyFilter for Rules<'_> {
     #[inline]
     fn interacts(&self, part: usize, target: u32) -> bool {
-        !self.layered || {
-            let target = self.targets.get(target as usize).copied();
-            let part = self.parts.get(part).copied();
-            part.unwrap_or_default()
-                .interacts(target.unwrap_or_default())
-        }
+        let Some((parts, targets)) = self.layers else {
+            return true;
+        };
+        let target = targets.get(target as usize).copied().unwrap_or_default();
+        let part = parts.get(part).copied().unwrap_or_default();
+        part.interacts(target)
     }
 
     fn accept(&self, hit: &CandidateHit) -> bool {
-        (self.accept)(self.body, (self.colliders)(hit.part), hit)
+        let collider = self.shared.compounds.collider(self.body, hit.part);
+        (self.shared.accept)(self.body.entity, collider, hit)
     }
 }
 
@@ -376,13 +374,12 @@ pub(crate) fn solve_lane(
                     let list = &candidates[start..start + body.candidate_count as usize];
                     touched ^= statics.touch(list);
                 }
-                match shared.compounds.mass_of(body, colliders) {
-                    Ok((mass, part)) => {
+                match shared.compounds.read(body, colliders, &mut own[n]) {
+                    Ok(mass) => {
                         if body.flags & HAS_MASS == 0 {
                             body.mass = mass.mass;
                             body.inertia = mass.inertia;
                         }
-                        own[n] = part.unwrap_or(placeholder);
                         batch[n] = next;
                         n += 1;
                     }
@@ -396,21 +393,22 @@ pub(crate) fn solve_lane(
             let start = body.candidates as usize;
             let list = &candidates[start..start + body.candidate_count as usize];
             let (parts, part_layers) = shared.compounds.parts_of(body, own);
-            let own_layers = [(shared.body_layers)(body)];
+            // The body's own layers, read only when it has some.
+            let own_layers = [if body.flags & HAS_LAYERS != 0 {
+                (shared.body_layers)(body)
+            } else {
+                CollisionLayers::DEFAULT
+            }];
             let part_layers = part_layers.unwrap_or(&own_layers);
+            let layered = !shared.static_layers.is_empty()
+                || part_layers.iter().any(|l| *l != CollisionLayers::DEFAULT);
             body.impacts = impacts.len() as u32;
-            let entry: &BodyEntry = body;
-            let colliders = |part: u32| shared.compounds.collider(entry, part);
+            let state = state(body);
             let rules = Rules {
-                parts: part_layers,
-                targets: shared.static_layers,
-                layered: !shared.static_layers.is_empty()
-                    || part_layers.iter().any(|l| *l != CollisionLayers::DEFAULT),
-                body: entry.entity,
-                colliders: &colliders,
-                accept: shared.accept,
+                layers: layered.then_some((part_layers, shared.static_layers)),
+                body,
+                shared,
             };
-            let state = state(entry);
             let outcome = traced(shared, sensing, index, |path| {
                 solve_body(
                     &state,

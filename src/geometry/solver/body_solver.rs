@@ -262,6 +262,8 @@ impl Parts for Many<'_> {
 /// the step the body travelled, in order ([`PathPiece`]): what sensors are swept along.
 ///
 /// A body without parts has nothing to hit: it ends where its sweep does.
+// Inlined into the plugin's one call, as the one-collider path was before parts existed.
+#[inline(always)]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn solve_body(
     body: &BodyState,
@@ -710,7 +712,7 @@ fn solve(
             }
         };
         if done || stalled >= MAX_CONTACTS_AT_ONE_POSE || step_fraction >= 1.0 {
-            result.position = sweep.pose_at(fraction).p;
+            result.position = pose.p;
             result.angle = angle;
             if stalled >= 2 {
                 // Responded to twice in a row without moving: wedged between its contacts,

@@ -103,7 +103,7 @@ fn narrow((v, w): (DVec2, f64)) -> Result<(Vec2, f32), ToiFailure> {
 ///
 /// Errors as [`contact_response`].
 // Hot, and called from `solve_body` in another module (so possibly another codegen unit).
-#[inline]
+#[inline(always)]
 pub(super) fn patch_response(
     velocity: (Vec2, f32),
     r: (Vec2, Vec2),
