@@ -106,9 +106,7 @@ impl<'a> Cast<'a> {
         // and its tolerance (a quarter slop), so twice the slop holds them all.
         let half = half + Vec2::splat(2.0 * self.slop);
         let delta = self.sweep.c1 - self.sweep.c0;
-        statics
-            .bvh()
-            .cast(center, delta, half, 1.0, |target, _| visit(target));
+        statics.cast(center, delta, half, |target, _| visit(target));
     }
 
     /// The time of impact against target `index` up to `max_fraction`: a hit, nothing, or a
@@ -412,32 +410,30 @@ fn ray_walk(
     let delta = (ray.unit * length).as_vec2();
     let margin = Vec2::splat(1e-5 * (1.0 + ray.origin.abs().max_element()));
     let mut limit = length;
-    statics
-        .bvh()
-        .cast(ray.origin, delta, margin, 1.0, |index, _| {
-            let target = &statics.items()[index as usize];
-            if !statics.is_disabled(index as usize) && accept(index) {
-                // The rotation the set keeps per target: no sine and cosine per ray.
-                let pose = Pose {
-                    p: target.position,
-                    q: statics.records()[index as usize].key.rotation,
+    statics.cast(ray.origin, delta, margin, |index, _| {
+        let target = &statics.items()[index as usize];
+        if !statics.is_disabled(index as usize) && accept(index) {
+            // The rotation the set keeps per target: no sine and cosine per ray.
+            let pose = Pose {
+                p: target.position,
+                q: statics.records()[index as usize].key.rotation,
+            };
+            if let Some((distance, normal)) =
+                entry_distance(ray.origin, ray.unit, limit, &target.proxy, pose)
+            {
+                let hit = TargetHit {
+                    target: index,
+                    fraction: (distance / length) as f32,
+                    point: ray.at(distance),
+                    normal,
+                    separation: 0.0,
                 };
-                if let Some((distance, normal)) =
-                    entry_distance(ray.origin, ray.unit, limit, &target.proxy, pose)
-                {
-                    let hit = TargetHit {
-                        target: index,
-                        fraction: (distance / length) as f32,
-                        point: ray.at(distance),
-                        normal,
-                        separation: 0.0,
-                    };
-                    limit = visit(hit, distance);
-                }
+                limit = visit(hit, distance);
             }
-            // The boxes' limit as a fraction of the ray, rounded up: never short of `limit`.
-            ((limit / length) as f32).next_up()
-        });
+        }
+        // The boxes' limit as a fraction of the ray, rounded up: never short of `limit`.
+        ((limit / length) as f32).next_up()
+    });
 }
 
 /// The first target `ray` enters (ties to the lower index), among those `accept` lets it hit:

@@ -21,11 +21,11 @@ use crate::geometry::constants::{
 use crate::geometry::math::{Pose, left_perp};
 use crate::geometry::query::toi::{BodyFrame, ToiFailure};
 use crate::geometry::shape::proxy::ShapeProxy;
-use crate::geometry::solver::cull::reach_interval;
+use crate::geometry::solver::cull::{mover_interval, reach_interval};
 use crate::geometry::solver::pair::{Contact, PairOutcome, contact_patch, pair_toi};
 use crate::geometry::solver::response::{Response, patch_response};
 use crate::geometry::solver::sensor::PathPiece;
-use crate::geometry::solver::static_set::{StaticSet, TargetRecord};
+use crate::geometry::solver::static_set::{StaticItem, StaticSet, TargetFrame};
 use crate::geometry::sweep::Sweep;
 
 /// How a body is resolved at an impact.
@@ -131,6 +131,11 @@ pub struct BodyOutcome {
     /// pressed it to the slop's depth. `position` is then not on the sweep given; the move is
     /// at most a few tenths of a millimetre at the default slop.
     pub nudged: bool,
+    /// The body was caught by a moving target it could not get away from within the step:
+    /// pressed between it and another target (or another mover), or out of sub-steps. It is
+    /// left at its last pose clear of both, where it was struck; the mover goes on and may
+    /// overlap it by the step's end (from where it is pushed out at the next steps).
+    pub squeezed: bool,
 }
 
 /// (Part, target) pairs of one sweep that [`solve_body`] orders on the stack by when the body
@@ -289,6 +294,7 @@ pub(crate) fn solve_body(
                 started_overlapping: false,
                 failure: None,
                 nudged: false,
+                squeezed: false,
             }
         }
         [one] => solve(
@@ -357,6 +363,7 @@ fn solve(
         started_overlapping: false,
         failure: None,
         nudged: false,
+        squeezed: false,
     };
     // Fraction of the whole step at the start of the current sweep.
     let mut step_start = 0.0f32;
@@ -370,8 +377,18 @@ fn solve(
     // (Target, part) pairs `accept` rejected: skipped for the rest of the step. Each search
     // again after a rejection adds one, so they are bounded by the candidates.
     let mut vetoed: SmallVec<[(u32, u32); 4]> = SmallVec::new();
+    // The velocity field of target `index` at step fraction `at` if it moves: a point `p` of
+    // it moves at `v + w × (p - c)` (its velocity `v`, spin `w`, centre `c`).
+    let carried = |index: u32, at: f32| {
+        let m = statics.motion(index)?;
+        Some((
+            m.linear_motion() / dt,
+            m.angular_motion() / dt,
+            m.center_at(at),
+        ))
+    };
     loop {
-        let list: &[u32] = if first {
+        let list: &[u32] = if first && !statics.has_movers() {
             candidates
         } else {
             scratch.clear();
@@ -379,8 +396,36 @@ fn solve(
             for part in 1..n {
                 bounds = bounds.union(parts.part(part).proxy.swept_aabb(&sweep));
             }
-            statics.candidates_in(bounds, slop, scratch);
+            if first {
+                scratch.extend_from_slice(candidates);
+            } else {
+                statics.candidates_in(bounds, slop, scratch);
+            }
+            if statics.has_movers() {
+                // The movers, by the boxes of their whole step, which hold every stretch.
+                let still = scratch.len();
+                statics.movers_in(bounds, slop, scratch);
+                if still > 0 && scratch.len() > still {
+                    scratch.sort_unstable();
+                }
+            }
             scratch
+        };
+        // A moving target's motion over this sweep's stretch of the step (`[step_start, 1]`),
+        // and its item and frame at the stretch's start.
+        let mover = |index: u32| {
+            let mut motion = *statics.motion(index)?;
+            motion.advance(step_start);
+            let item = &statics.items()[index as usize];
+            let at = StaticItem {
+                proxy: item.proxy,
+                position: motion.pose_at(0.0).p,
+                angle: motion.a0,
+            };
+            // Its reach about the point it turns about, as the time of impact sweeps it.
+            let mut frame = TargetFrame::new(&at);
+            frame.toi = BodyFrame::new(&motion, &at.proxy);
+            Some((at, frame, motion))
         };
         // The sweep's start rotation and its reach about the sweep's own centre of mass (what
         // every bound below assumes), shared by all its pairs. Sub-step sweeps turn about
@@ -409,21 +454,28 @@ fn solve(
         let short = list.len() * n <= ORDERED_TARGETS;
         if short {
             for &index in list {
-                let Some(key) = statics
+                let Some(record) = statics
                     .records()
                     .get(index as usize)
                     .filter(|r| !r.disabled)
-                    .map(|r| &r.key)
                 else {
                     continue;
                 };
+                let moving = if record.moving { mover(index) } else { None };
                 for part in 0..n {
                     if !filter.interacts(part, index) {
                         continue;
                     }
                     let proxy = &parts.part(part).proxy;
                     let reach = part_reach(part);
-                    if let Some(window) = reach_interval(reach, proxy, &sweep, key, slop) {
+                    let window = match &moving {
+                        None => reach_interval(reach, proxy, &sweep, &record.key, slop),
+                        Some((at, frame, motion)) => {
+                            let target = (motion, frame.toi.reach(), at.proxy.radius);
+                            mover_interval(reach, proxy, &sweep, target, slop)
+                        }
+                    };
+                    if let Some(window) = window {
                         // Insertion by fraction after the pairs in (target, part) order:
                         // deterministic, ties in that order.
                         let mut k = ordered;
@@ -458,15 +510,19 @@ fn solve(
             if !vetoed.is_empty() && vetoed.contains(&(index, part)) {
                 continue;
             }
-            let (Some(target), Some(frame)) = (
+            let (Some(item), Some(record)) = (
                 statics.items().get(index as usize),
                 statics
                     .records()
                     .get(index as usize)
-                    .filter(|r| !r.disabled)
-                    .map(TargetRecord::frame),
+                    .filter(|r| !r.disabled),
             ) else {
                 continue;
+            };
+            let moving = if record.moving { mover(index) } else { None };
+            let (target, frame, motion) = match &moving {
+                None => (item, record.frame(), None),
+                Some((at, frame, motion)) => (at, *frame, Some(motion)),
             };
             // A target hit later than the earliest hit or failure so far cannot change the
             // answer: search it only up to there.
@@ -499,8 +555,7 @@ fn solve(
                 reach,
                 &sweep,
                 frame_of_part,
-                target,
-                &frame,
+                (target, &frame, motion),
                 slop,
                 interval,
                 known_patch,
@@ -569,14 +624,19 @@ fn solve(
             };
             let center = sweep.center_at(fraction);
             let before = vetoed.len();
+            let at = step_start + fraction * (1.0 - step_start);
             for &(target, target_part, contact) in contacts {
+                let mut arriving = velocity.0 + velocity.1 * left_perp(contact.point - center);
+                if let Some((v, w, c)) = carried(target, at) {
+                    arriving -= v + w * left_perp(contact.point - c);
+                }
                 let candidate = CandidateHit {
                     target,
                     part: target_part,
-                    fraction: step_start + fraction * (1.0 - step_start),
+                    fraction: at,
                     point: contact.point,
                     normal: -contact.normal,
-                    velocity: velocity.0 + velocity.1 * left_perp(contact.point - center),
+                    velocity: arriving,
                     overlapping: if (target, target_part) == (index, part) {
                         overlapping
                     } else {
@@ -626,6 +686,8 @@ fn solve(
         // turned into a lowered band, see `pair_toi`) is sent back toward them over a step,
         // at most one slop a step, so that repeated contacts do not creep ever closer.
         let mut patches: SmallVec<[Response; MAX_CONTACTS]> = SmallVec::new();
+        let mut frames: SmallVec<[Option<(Vec2, f32)>; MAX_CONTACTS]> = SmallVec::new();
+        let mut on_mover = false;
         let hits_at = target_separation(slop) - separation_tolerance(slop);
         known.clear();
         for &(index, part, contact) in contacts {
@@ -644,9 +706,12 @@ fn solve(
             });
             let (a, b) = contact.patch.unwrap_or_else(|| {
                 let target = &statics.items()[index as usize];
-                let target_pose = Pose {
-                    p: target.position,
-                    q: statics.records()[index as usize].key.rotation,
+                let target_pose = match statics.motion(index) {
+                    None => Pose {
+                        p: target.position,
+                        q: statics.records()[index as usize].key.rotation,
+                    },
+                    Some(motion) => motion.pose_at(step_fraction),
                 };
                 let contact = (normal, point);
                 let proxy = &parts.part(part as usize).proxy;
@@ -655,6 +720,12 @@ fn solve(
             known.push((index, part, (a, b)));
             let push = (hits_at - gap).clamp(0.0, slop) / ((1.0 - step_fraction).max(0.25) * dt);
             patches.push(((a - center, b - center), -normal, push));
+            // A moving target's velocity at the body's centre and its spin: the response
+            // acts on the body's velocity relative to the target's (a rigid motion too).
+            let frame =
+                carried(index, step_fraction).map(|(v, w, c)| (v + w * left_perp(center - c), w));
+            frames.push(frame);
+            on_mover |= frame.is_some();
         }
         result.impacts += contacts.len() as u32;
         // Restitution on the first pass, then inelastic passes until no contact approaches:
@@ -666,10 +737,19 @@ fn solve(
         'passes: for pass in 0..CONTACT_PASSES {
             let before = velocity;
             let restitution = if pass == 0 { body.restitution } else { 0.0 };
-            for &(ends, outward, _) in &patches {
+            for (&(ends, outward, _), &frame) in patches.iter().zip(&frames) {
                 let mass = (body.mass, body.inertia);
-                match patch_response(velocity, ends, outward, mass, (restitution, body.friction)) {
-                    Ok(after) => velocity = after,
+                let relative = match frame {
+                    None => velocity,
+                    Some((v, w)) => (velocity.0 - v, velocity.1 - w),
+                };
+                match patch_response(relative, ends, outward, mass, (restitution, body.friction)) {
+                    Ok(after) => {
+                        velocity = match frame {
+                            None => after,
+                            Some((v, w)) => (after.0 + v, after.1 + w),
+                        }
+                    }
                     Err(error) => {
                         failure = Some(error);
                         break 'passes;
@@ -691,8 +771,11 @@ fn solve(
         }
         // The push, through the centre of mass (every point of the body moves away, whatever
         // it turns), after the contacts are resolved.
-        for &(_, outward, push) in &patches {
-            let along = velocity.0.dot(outward);
+        for (&(_, outward, push), &frame) in patches.iter().zip(&frames) {
+            let along = match frame {
+                None => velocity.0.dot(outward),
+                Some((v, _)) => (velocity.0 - v).dot(outward),
+            };
             if along < push {
                 velocity.0 += (push - along) * outward;
             }
@@ -702,13 +785,19 @@ fn solve(
         // toward every limit, and too many in a row leave the body where it is.
         let advanced = step_fraction > step_start;
         stalled = if advanced { 0 } else { stalled + 1 };
-        let done = match settings.mode {
-            // Clamping stops at the first impact with a target the body did not start the
-            // sweep touching; a contact it starts with (or slides or turns into) only changes
-            // its velocity, and the step goes on from there.
-            Resolution::Clamp => advanced && !resting,
-            Resolution::SubStep { max_substeps } => {
-                result.substeps >= max_substeps.min(MAX_SUBSTEPS)
+        let done = if on_mover {
+            // A moving target goes on after the impact: a body stopped there would be inside
+            // it by the step's end. The step goes on in both modes, to the hard limit.
+            result.substeps >= MAX_SUBSTEPS
+        } else {
+            match settings.mode {
+                // Clamping stops at the first impact with a target the body did not start the
+                // sweep touching; a contact it starts with (or slides or turns into) only
+                // changes its velocity, and the step goes on from there.
+                Resolution::Clamp => advanced && !resting,
+                Resolution::SubStep { max_substeps } => {
+                    result.substeps >= max_substeps.min(MAX_SUBSTEPS)
+                }
             }
         };
         if done || stalled >= MAX_CONTACTS_AT_ONE_POSE || step_fraction >= 1.0 {
@@ -719,6 +808,9 @@ fn solve(
                 // whatever velocity the responses left cannot move it. It is at rest.
                 velocity = (Vec2::ZERO, 0.0);
             }
+            // Held against a moving target that goes on (caught between it and another
+            // target, or out of sub-steps): left where it is, short of both.
+            result.squeezed = on_mover && step_fraction < 1.0;
             break;
         }
         // Spend the rest of the step from the impact with the new velocity.
@@ -1087,13 +1179,33 @@ mod tests {
                 let (candidates, settings) = ([0], settings(mode));
                 let one = Single(&body.part);
                 let args = (&candidates[..], &settings, scratch, impacts);
-                super::solve(&body.state, &one, &statics, args.0, args.1, args.2, args.3, &(), None)
+                super::solve(
+                    &body.state,
+                    &one,
+                    &statics,
+                    args.0,
+                    args.1,
+                    args.2,
+                    args.3,
+                    &(),
+                    None,
+                )
             });
             let many = run(&|scratch, impacts| {
                 let (candidates, settings) = ([0], settings(mode));
                 let one = Many(core::slice::from_ref(&body.part));
                 let args = (&candidates[..], &settings, scratch, impacts);
-                super::solve(&body.state, &one, &statics, args.0, args.1, args.2, args.3, &(), None)
+                super::solve(
+                    &body.state,
+                    &one,
+                    &statics,
+                    args.0,
+                    args.1,
+                    args.2,
+                    args.3,
+                    &(),
+                    None,
+                )
             });
             assert!(single.0.impacts > 0, "{mode:?}: the case must hit");
             assert_eq!(single, many, "{mode:?}");
@@ -1316,5 +1428,231 @@ mod tests {
         }]);
         let out = solve(&body, &statics, Resolution::Clamp);
         assert_eq!(out.failure, None, "{out:?}");
+    }
+
+    /// `statics` with target `mover` moving along `motion`, the others
+    /// still.
+    fn with_mover(items: &[StaticItem], mover: u32, motion: Sweep) -> StaticSet {
+        let mut statics = StaticSet::default();
+        statics.rebuild_with_movers(items.iter().copied(), &[mover]);
+        statics.move_targets([(mover, motion)]);
+        statics
+    }
+
+    /// Solves `body` against `statics` with the still targets its swept box meets as the
+    /// broad phase's candidates (the solver finds the movers itself).
+    fn solve_among(
+        body: &Body,
+        statics: &StaticSet,
+        mode: Resolution,
+    ) -> (BodyOutcome, Vec<ImpactRecord>) {
+        let mut candidates = Vec::new();
+        let slop = crate::geometry::LINEAR_SLOP;
+        statics.candidates(&body.part.proxy, &body.state.sweep, slop, &mut candidates);
+        let mut impacts = Vec::new();
+        let out = solve_body(
+            &body.state,
+            &[body.part],
+            statics,
+            &candidates,
+            &settings(mode),
+            (&mut Vec::new(), &mut impacts),
+            &(),
+            None,
+        );
+        (out, impacts)
+    }
+
+    /// A disc at rest at the origin, of radius `r`, mass 1 and restitution `e`.
+    fn resting_disc(r: f32, e: f32) -> Body {
+        let mut body = moving(
+            Shape::from(Circle::new(r).unwrap()).proxy(),
+            Vec2::ZERO,
+            0.0,
+            Vec2::ZERO,
+            0.0,
+        );
+        body.state.mass = 1.0;
+        body.state.inertia = 0.5 * r * r;
+        body.state.restitution = e;
+        body
+    }
+
+    /// A wall 0.1 m thick and 4 m tall at `x` (its centre), as a target.
+    fn slab(x: f32) -> StaticItem {
+        StaticItem {
+            proxy: Shape::from(Polygon::rectangle(0.05, 2.0).unwrap()).proxy(),
+            position: Vec2::new(x, 0.0),
+            angle: 0.0,
+        }
+    }
+
+    const DT: f32 = 1.0 / 60.0;
+    const SLOP: f32 = crate::geometry::LINEAR_SLOP;
+
+    /// A wall sliding at 100 m/s reaches a disc at rest at the closed-form fraction: its face
+    /// starts 0.7 m from the disc and stops a slop short of it, `(0.7 - slop) / (100 dt)`,
+    /// within the time of impact's band (`slop / 4` of travel). The disc is launched at the
+    /// wall's speed plus restitution times the speed it was struck at, and never ends inside
+    /// the wall, in both modes.
+    #[test]
+    fn a_wall_at_100_m_s_reaches_a_resting_disc_at_the_closed_form_fraction() {
+        let (speed, r) = (100.0f32, 0.25f32);
+        let start = -0.25 - 0.7 - 0.05;
+        let motion = Sweep::new(
+            Vec2::ZERO,
+            Vec2::new(start, 0.0),
+            0.0,
+            Vec2::new(start + speed * DT, 0.0),
+            0.0,
+        );
+        let statics = with_mover(&[slab(start)], 0, motion);
+        let expected = (0.7 - SLOP) / (speed * DT);
+        let band = 0.25 * SLOP / (speed * DT);
+        for mode in [Resolution::Clamp, Resolution::SubStep { max_substeps: 4 }] {
+            let body = resting_disc(r, 0.5);
+            let (out, impacts) = solve_among(&body, &statics, mode);
+            let first = impacts
+                .first()
+                .unwrap_or_else(|| panic!("{mode:?}: no impact"));
+            assert!(
+                (first.fraction - expected).abs() <= band,
+                "{mode:?}: {} vs {expected}",
+                first.fraction
+            );
+            assert_eq!(first.target, 0);
+            assert!(first.normal.distance(Vec2::X) < 1e-5, "{first:?}");
+            // Struck at -100 m/s relative, it leaves at +50 relative: 150 m/s.
+            let (v, _) = out.velocity.unwrap();
+            assert!((v.x - 1.5 * speed).abs() < 1e-2 * speed, "{mode:?}: {v}");
+            let end = Pose::new(out.position, out.angle);
+            let wall = StaticItem {
+                position: Vec2::new(start + speed * DT, 0.0),
+                ..slab(0.0)
+            };
+            assert!(
+                gap(&body.part.proxy, end, &wall) >= -SLOP,
+                "{mode:?}: {out:?}"
+            );
+            assert!(!out.squeezed, "{mode:?}");
+        }
+    }
+
+    /// A blade spinning 20 turns a second about its centre hits a disc at rest at the
+    /// closed-form first contact: its face turns toward the disc's centre (at distance `rho`,
+    /// angle `phi`), and the face is a slop from the disc when
+    /// `rho sin(phi - theta) = h + r + slop`, so `theta = phi - asin((h + r + slop) / rho)`,
+    /// as a fraction of the step's turn; within the band of `slop / 4` of separation, which the
+    /// face closes at `rho cos(phi - theta)` metres a radian.
+    #[test]
+    fn a_blade_at_20_turns_a_second_hits_a_disc_at_its_closed_form_first_contact() {
+        let (h, r, rho, phi) = (0.02f32, 0.1f32, 0.6f32, 1.0f32);
+        let w = 20.0 * core::f32::consts::TAU;
+        let blade = StaticItem {
+            proxy: Shape::from(Polygon::rectangle(1.0, h).unwrap()).proxy(),
+            position: Vec2::ZERO,
+            angle: 0.0,
+        };
+        let motion = Sweep::new(Vec2::ZERO, Vec2::ZERO, 0.0, Vec2::ZERO, w * DT);
+        let statics = with_mover(&[blade], 0, motion);
+        let (rho64, phi64, reach) = (f64::from(rho), f64::from(phi), f64::from(h + r + SLOP));
+        let theta = phi64 - (reach / rho64).asin();
+        let expected = theta / f64::from(w * DT);
+        let rate = rho64 * (phi64 - theta).cos() * f64::from(w * DT);
+        let band = f64::from(0.25 * SLOP) / rate;
+        for mode in [Resolution::Clamp, Resolution::SubStep { max_substeps: 4 }] {
+            let mut body = resting_disc(r, 0.3);
+            let at = Vec2::new(rho * phi.cos(), rho * phi.sin());
+            body.state.sweep = Sweep::new(Vec2::ZERO, at, 0.0, at, 0.0);
+            let (out, impacts) = solve_among(&body, &statics, mode);
+            let first = impacts
+                .first()
+                .unwrap_or_else(|| panic!("{mode:?}: no impact"));
+            let fraction = f64::from(first.fraction);
+            assert!(
+                (fraction - expected).abs() <= band,
+                "{mode:?}: {fraction} vs {expected} ± {band}"
+            );
+            // Launched along the blade's normal there, faster than the face moved.
+            let (v, _) = out.velocity.unwrap();
+            let face = w * rho * (phi - theta as f32).cos();
+            assert!(
+                v.length() >= face,
+                "{mode:?}: {v} slower than the face, {face}"
+            );
+            let end = Pose::new(out.position, out.angle);
+            let blade_end = StaticItem {
+                angle: w * DT,
+                ..blade
+            };
+            assert!(
+                gap(&body.part.proxy, end, &blade_end) >= -SLOP,
+                "{mode:?}: {out:?}"
+            );
+        }
+    }
+
+    /// A platform rising at 50 m/s under a disc resting on it (restitution 0) carries it: the
+    /// disc ends the step moving with it, on it, never in it.
+    #[test]
+    fn a_rising_platform_carries_a_resting_disc() {
+        let r = 0.25f32;
+        let top = -r - SLOP;
+        let platform = StaticItem {
+            proxy: Shape::from(Polygon::rectangle(2.0, 0.05).unwrap()).proxy(),
+            position: Vec2::new(0.0, top - 0.05),
+            angle: 0.0,
+        };
+        let rise = Vec2::new(0.0, 50.0 * DT);
+        let motion = Sweep::new(
+            Vec2::ZERO,
+            platform.position,
+            0.0,
+            platform.position + rise,
+            0.0,
+        );
+        let statics = with_mover(&[platform], 0, motion);
+        for mode in [Resolution::Clamp, Resolution::SubStep { max_substeps: 4 }] {
+            let body = resting_disc(r, 0.0);
+            let (out, impacts) = solve_among(&body, &statics, mode);
+            assert!(!impacts.is_empty(), "{mode:?}");
+            let (v, _) = out.velocity.unwrap();
+            assert!((v.y - 50.0).abs() < 0.5, "{mode:?}: {v}");
+            let end = Pose::new(out.position, out.angle);
+            let moved = StaticItem {
+                position: platform.position + rise,
+                ..platform
+            };
+            let g = gap(&body.part.proxy, end, &moved);
+            assert!(g >= -SLOP, "{mode:?}: {g} m into the platform");
+            assert!(!out.squeezed, "{mode:?}");
+        }
+    }
+
+    /// A disc resting against a still wall, struck by a wall sliding at 10 m/s: it cannot get
+    /// away, so it is squeezed, left where it was struck, in neither wall.
+    #[test]
+    fn a_disc_caught_between_a_mover_and_a_wall_is_squeezed() {
+        let r = 0.25f32;
+        let wall = slab(r + SLOP + 0.05);
+        let start = -r - 0.1 - 0.05;
+        let motion = Sweep::new(
+            Vec2::ZERO,
+            Vec2::new(start, 0.0),
+            0.0,
+            Vec2::new(start + 10.0 * DT, 0.0),
+            0.0,
+        );
+        let statics = with_mover(&[slab(start), wall], 0, motion);
+        for mode in [Resolution::Clamp, Resolution::SubStep { max_substeps: 4 }] {
+            let body = resting_disc(r, 0.5);
+            let (out, impacts) = solve_among(&body, &statics, mode);
+            assert!(out.squeezed, "{mode:?}: {out:?} {impacts:?}");
+            let end = Pose::new(out.position, out.angle);
+            let proxy = &body.part.proxy;
+            assert!(gap(proxy, end, &wall) >= -SLOP, "{mode:?}: {out:?}");
+            // Short of where the mover was when it struck, and no further than the slop.
+            assert!(out.position.x.abs() <= SLOP, "{mode:?}: {out:?}");
+        }
     }
 }

@@ -64,18 +64,38 @@ pub(super) enum PairOutcome {
 /// target, which bounds how far it can sink. The response's rounding scales with the body's
 /// speed, not the contact's (a rolling contact is at rest while the body is fast), so a few
 /// ulps of the body's motion at the point are added to it.
-fn approaching(sweep: &Sweep, point: Vec2, normal: Vec2, threshold: f32) -> bool {
+///
+/// Against a moving target (`motion`, the target's sweep over the same stretch) the motion is
+/// the point's relative to the target's point there: the body's less the target's.
+fn approaching(
+    sweep: &Sweep,
+    motion: Option<&Sweep>,
+    point: Vec2,
+    normal: Vec2,
+    threshold: f32,
+) -> bool {
     let r = point - sweep.c0;
-    let linear = sweep.linear_motion();
-    let turn = sweep.angular_motion() * left_perp(r);
+    let mut linear = sweep.linear_motion();
+    let mut turn = sweep.angular_motion() * left_perp(r);
+    if let Some(m) = motion {
+        linear -= m.linear_motion();
+        turn -= m.angular_motion() * left_perp(point - m.c0);
+    }
     let noise = 16.0 * f32::EPSILON * (linear.length() + turn.length());
     (linear + turn).dot(normal) > threshold + noise
 }
 
 /// Whether either end of a contact patch (world points at the start of `sweep`) moves toward
 /// the target along `normal` by more than `threshold` metres over the sweep ([`approaching`]).
-fn patch_approaching(sweep: &Sweep, patch: (Vec2, Vec2), normal: Vec2, threshold: f32) -> bool {
-    approaching(sweep, patch.0, normal, threshold) || approaching(sweep, patch.1, normal, threshold)
+fn patch_approaching(
+    sweep: &Sweep,
+    motion: Option<&Sweep>,
+    patch: (Vec2, Vec2),
+    normal: Vec2,
+    threshold: f32,
+) -> bool {
+    approaching(sweep, motion, patch.0, normal, threshold)
+        || approaching(sweep, motion, patch.1, normal, threshold)
 }
 
 /// The time of impact of the body against one target, with the handling of bodies that start
@@ -95,8 +115,13 @@ fn patch_approaching(sweep: &Sweep, patch: (Vec2, Vec2), normal: Vec2, threshold
 ///
 /// Only `[0, t_max]` of the sweep is searched: the caller passes the earliest hit found so far
 /// against other targets, since a later one could not change the answer.
+///
+/// A moving target passes its `motion` over the same stretch as `sweep`, `target` and
+/// `frame` at the motion's start: the query then sweeps both, and every test of
+/// a start contact above judges the body's motion relative to the target's. Its culling is the
+/// caller's ([`mover_interval`](super::cull::mover_interval)).
 #[allow(clippy::too_many_arguments)]
-// the body, its sweep and frame, the target and its frame
+// the body, its sweep and frame, the target, its frame and motion
 // Hot, and called from `solve_body` in another module (so possibly another codegen unit).
 #[inline]
 pub(super) fn pair_toi(
@@ -104,19 +129,23 @@ pub(super) fn pair_toi(
     reach: f32,
     sweep: &Sweep,
     body_frame: BodyFrame,
-    target: &StaticItem,
-    frame: &TargetFrame,
+    (target, frame, motion): (&StaticItem, &TargetFrame, Option<&Sweep>),
     slop: f32,
     (t_min, t_max): (f32, f32),
     known_patch: Option<(Vec2, Vec2)>,
 ) -> PairOutcome {
-    if out_of_reach(reach, &part.proxy, sweep, t_min, t_max, target, frame, slop) {
+    if motion.is_none()
+        && out_of_reach(reach, &part.proxy, sweep, t_min, t_max, target, frame, slop)
+    {
         return PairOutcome::Clear {
             overlapping: false,
             touch: None,
         };
     }
-    let target_sweep = Sweep::stationary(Vec2::ZERO, target.position, target.angle);
+    let target_sweep = match motion {
+        Some(m) => *m,
+        None => Sweep::stationary(Vec2::ZERO, target.position, target.angle),
+    };
     let mut input = ToiInput::new(part.proxy, *sweep, target.proxy, target_sweep);
     input.max_fraction = t_max;
     input.config = ToiConfig {
@@ -130,7 +159,7 @@ pub(super) fn pair_toi(
     // A contact at the start: a hit at 0, or an overlap.
     let overlapping = out.separation < 0.0;
     if out.normal == Vec2::ZERO {
-        return core_fallback(part, sweep, target, slop, input);
+        return core_fallback(part, sweep, (target, motion), slop, input);
     }
     // The ends of the contact patch, where the response will act: deciding at the
     // same points as the response (not at the query's one closest point) means that
@@ -141,7 +170,7 @@ pub(super) fn pair_toi(
     let spread = sweep.angular_motion().abs() * 2.0 * (reach + part.proxy.radius);
     let linear = sweep.linear_motion();
     let turn_at = |p: Vec2| sweep.angular_motion() * left_perp(p - sweep.c0);
-    let apart = (linear + turn_at(out.point)).dot(out.normal) < -spread;
+    let apart = motion.is_none() && (linear + turn_at(out.point)).dot(out.normal) < -spread;
     let patch = (known_patch.is_some() || !apart).then(|| {
         known_patch.unwrap_or_else(|| {
             // The poses from the rotations at hand: no sine or cosine again.
@@ -167,7 +196,7 @@ pub(super) fn pair_toi(
     let touch = Some(start);
     let threshold = 0.01 * separation_tolerance(slop);
     if let Some(patch) = patch
-        && patch_approaching(sweep, patch, out.normal, threshold)
+        && patch_approaching(sweep, motion, patch, out.normal, threshold)
     {
         return PairOutcome::Hit {
             fraction: 0.0,
@@ -182,9 +211,11 @@ pub(super) fn pair_toi(
     // A turn so small that no point of the body moves by more than a hundredth of
     // the tolerance (rounding leaves such spins behind) counts as none: the distance
     // can then shrink by no more than that over the whole sweep.
-    let turn = sweep.angular_motion().abs() * reach;
+    // A turning target is searched like a turning body.
+    let turn = sweep.angular_motion().abs() * reach
+        + motion.map_or(0.0, |m| m.angular_motion().abs() * frame.toi.reach());
     if turn <= threshold
-        && patch.is_none_or(|patch| !patch_approaching(sweep, patch, out.normal, 0.0))
+        && patch.is_none_or(|patch| !patch_approaching(sweep, motion, patch, out.normal, 0.0))
     {
         return PairOutcome::Clear { overlapping, touch };
     }
@@ -282,7 +313,7 @@ fn settled(out: &ToiOutput, overlapping: bool) -> Option<PairOutcome> {
 fn core_fallback(
     part: &BodyPart,
     sweep: &Sweep,
-    target: &StaticItem,
+    (target, motion): (&StaticItem, Option<&Sweep>),
     slop: f32,
     mut input: ToiInput,
 ) -> PairOutcome {
@@ -311,6 +342,7 @@ fn core_fallback(
     if out.normal != Vec2::ZERO
         && approaching(
             sweep,
+            motion,
             out.point,
             out.normal,
             0.01 * separation_tolerance(slop),
@@ -319,7 +351,13 @@ fn core_fallback(
         stop(out.point, out.normal)
     } else if out.normal == Vec2::ZERO
         && let Some((exit, depth)) = exit_face(target, sweep.c0)
-        && approaching(sweep, sweep.c0, -exit, 0.01 * separation_tolerance(slop))
+        && approaching(
+            sweep,
+            motion,
+            sweep.c0,
+            -exit,
+            0.01 * separation_tolerance(slop),
+        )
     {
         // The centre itself is inside the target: moving it further in across the face
         // it is nearest to is going deeper. Stopped, at the point of that face.
@@ -427,8 +465,7 @@ mod tests {
             reach,
             &sweep,
             BodyFrame::with_reach(&sweep, reach),
-            &floor,
-            &TargetFrame::new(&floor),
+            (&floor, &TargetFrame::new(&floor), None),
             LINEAR_SLOP,
             (0.0, 1.0),
             None,

@@ -7,6 +7,11 @@
 //! its own frame, the box the culling tests clip against. It fills one 64-byte cache line, so a
 //! candidate the ordering test rules out costs one line read. A target removed while a step is
 //! under way is marked disabled in its record ([`StaticSet::disable`]) until the next rebuild.
+//!
+//! A moving target (a platform, a door, a blade) is an item like any other, at its pose at the
+//! end of the step (what casts see), with its motion over the step ([`StaticSet::move_targets`]).
+//! Movers are kept out of the built hierarchy: a small one over their swept boxes is rebuilt
+//! every step instead, so moving them never rebuilds the static one.
 
 use glam::Vec2;
 
@@ -42,6 +47,12 @@ pub struct StaticSet {
     records: Vec<TargetRecord>,
     bvh: Bvh,
     scratch: Vec<(u32, Aabb)>,
+    /// The moving targets' indices, ascending, and each one's motion over the step (as
+    /// `movers`).
+    movers: Vec<u32>,
+    motions: Vec<Sweep>,
+    /// The hierarchy over the movers' swept boxes, rebuilt by [`Self::move_targets`].
+    mover_bvh: Bvh,
 }
 
 impl StaticSet {
@@ -68,19 +79,124 @@ impl StaticSet {
         folded
     }
 
-    /// Replaces every target; target `i` of the slice gets index `i`.
+    /// Replaces every target; target `i` of the slice gets index `i`. None of them moves.
     pub fn rebuild(&mut self, items: impl IntoIterator<Item = StaticItem>) {
+        self.rebuild_with_movers(items, &[]);
+    }
+
+    /// Replaces every target, as [`Self::rebuild`]; the targets `movers` (indices, ascending)
+    /// are kept out of the built hierarchy: they stand still at their item's pose until
+    /// [`Self::move_targets`] gives them a motion.
+    pub fn rebuild_with_movers(
+        &mut self,
+        items: impl IntoIterator<Item = StaticItem>,
+        movers: &[u32],
+    ) {
         self.items.clear();
         self.items.extend(items);
         self.records.clear();
         self.records
             .extend(self.items.iter().map(TargetRecord::new));
+        self.movers.clear();
+        self.motions.clear();
+        for &index in movers {
+            let Some(item) = self.items.get(index as usize) else {
+                continue;
+            };
+            self.movers.push(index);
+            self.motions
+                .push(Sweep::stationary(Vec2::ZERO, item.position, item.angle));
+            self.records[index as usize].moving = true;
+        }
         self.scratch.clear();
+        let mut movers = self.movers.iter().peekable();
         for (i, item) in self.items.iter().enumerate() {
+            if movers.next_if_eq(&&(i as u32)).is_some() {
+                continue;
+            }
             let pose = Pose::new(item.position, item.angle);
             self.scratch.push((i as u32, item.proxy.aabb(pose)));
         }
         self.bvh.build(&self.scratch);
+        self.build_movers();
+    }
+
+    /// Sets the motion over this step of each mover in `motions`: its index, as given to
+    /// [`Self::rebuild_with_movers`], and its sweep from its pose at the start of the step to
+    /// its pose at the end, turning about `local_center`, a point fixed in its frame (a part
+    /// of a compound mover turns about its target's origin). Its item moves to the end pose.
+    /// A mover not listed stands still where it is; an index that is not a mover is ignored.
+    /// The movers' hierarchy is rebuilt, the static one is not touched.
+    pub fn move_targets(&mut self, motions: impl IntoIterator<Item = (u32, Sweep)>) {
+        for (sweep, &index) in self.motions.iter_mut().zip(&self.movers) {
+            let item = &self.items[index as usize];
+            *sweep = Sweep::stationary(sweep.local_center, item.position, item.angle);
+        }
+        for (index, sweep) in motions {
+            let Ok(slot) = self.movers.binary_search(&index) else {
+                continue;
+            };
+            self.motions[slot] = sweep;
+            let item = &mut self.items[index as usize];
+            item.position = sweep.pose_at(1.0).p;
+            item.angle = sweep.a1;
+            let record = &mut self.records[index as usize];
+            *record = TargetRecord {
+                disabled: record.disabled,
+                moving: true,
+                ..TargetRecord::new(item)
+            };
+        }
+        self.build_movers();
+    }
+
+    /// Rebuilds the movers' hierarchy over their swept boxes.
+    fn build_movers(&mut self) {
+        self.scratch.clear();
+        for (&index, sweep) in self.movers.iter().zip(&self.motions) {
+            let proxy = &self.items[index as usize].proxy;
+            self.scratch.push((index, proxy.swept_aabb(sweep)));
+        }
+        self.mover_bvh.build(&self.scratch);
+    }
+
+    /// Whether any target moves ([`Self::rebuild_with_movers`]).
+    #[inline]
+    pub fn has_movers(&self) -> bool {
+        !self.movers.is_empty()
+    }
+
+    /// The motion over the step of target `index` if it is a mover.
+    #[inline]
+    pub fn motion(&self, index: u32) -> Option<&Sweep> {
+        let slot = self.movers.binary_search(&index).ok()?;
+        self.motions.get(slot)
+    }
+
+    /// Appends to `out` the movers whose swept boxes overlap `bounds` grown by `margin` (m),
+    /// in ascending index order.
+    pub fn movers_in(&self, bounds: Aabb, margin: f32, out: &mut Vec<u32>) {
+        self.mover_bvh.query(&bounds.expanded(margin), out);
+    }
+
+    /// Walks the hierarchy of the targets, then that of the movers, along a cast
+    /// ([`Bvh::cast`]): a mover is visited by the box of its whole step, which holds its
+    /// pose now.
+    pub(crate) fn cast(
+        &self,
+        origin: Vec2,
+        delta: Vec2,
+        half: Vec2,
+        mut visit: impl FnMut(u32, f32) -> f32,
+    ) {
+        let mut limit = 1.0f32;
+        self.bvh.cast(origin, delta, half, 1.0, |index, t| {
+            limit = visit(index, t);
+            limit
+        });
+        if self.has_movers() && limit >= 0.0 {
+            self.mover_bvh.cast(origin, delta, half, limit, visit);
+        }
     }
 
     /// Stops target `index` being hit until the set is rebuilt (a target removed while a step
@@ -192,6 +308,8 @@ pub(in crate::geometry) struct TargetRecord {
     core_is_box: bool,
     /// The target was removed since the set was built ([`StaticSet::disable`]): never hit.
     pub(in crate::geometry) disabled: bool,
+    /// The target moves ([`StaticSet::motion`]): its key is its pose at the end of the step.
+    pub(in crate::geometry) moving: bool,
 }
 
 // One line: a key that grew past 59 bytes would make every record two.
@@ -205,6 +323,7 @@ impl TargetRecord {
             reach: frame.toi.reach(),
             core_is_box: frame.core_is_box,
             disabled: false,
+            moving: false,
         }
     }
 
