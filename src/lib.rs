@@ -54,8 +54,9 @@ pub mod prelude {
         BodyMass, CastFilter, CastHit, CcdConfig, CcdDiagnostics, CcdEnabled, CcdError, CcdEvents,
         CcdHit, CcdHooks, CcdImpact, CcdOutcome, CcdPlugin, CcdSchedule, CcdSensorCrossing,
         CcdSensorEntered, CcdSensorExited, CcdStartSchedule, CcdStepSystems, CcdSystems, Collider,
-        CollisionLayers, Friction, Hits, ImpactCandidate, OneWayPlatform, OneWayPlatforms,
-        Resolution, Restitution, Sensor, Slide, StaticCollider, StaticQuery, StepPoses, Velocity,
+        CollisionLayers, Friction, Hits, ImpactCandidate, MovingTarget, OneWayPlatform,
+        OneWayPlatforms, Resolution, Restitution, Sensor, Slide, StaticCollider, StaticQuery,
+        StepPoses, Velocity,
     };
     pub use glam::Vec2;
 }

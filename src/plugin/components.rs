@@ -183,6 +183,47 @@ impl Collider {
 #[reflect(Component, Default, Debug, Clone)]
 pub struct StaticCollider;
 
+/// Makes a [`StaticCollider`] a moving target: it is swept from its pose at the start of the
+/// step to its pose at the end, as a body is, and a body it strikes takes its velocity at the
+/// contact point (restitution and friction as at any impact). It is never pushed.
+///
+/// Move it as you move a body: its `Transform` (or an ancestor's) in your movement systems,
+/// between [`CcdSystems::RecordStart`](super::CcdSystems::RecordStart) and
+/// [`CcdSystems::Step`](super::CcdSystems::Step). It turns by the whole turns its [`Velocity`]
+/// says (`angular * step`, the nearest the end pose allows), else the shorter way round. Its
+/// parts (child colliders) move with it, turning about its origin; it may be a child of a
+/// moving root, and a moving root may carry several. Movers are kept out of the static
+/// hierarchy, in a small one of their own rebuilt every step: moving one costs no rebuild.
+/// A target without it keeps the static behaviour: moving it is a teleport.
+///
+/// A body it catches against another target is left where it was struck, with the outcome
+/// [`CcdError::Squeezed`](super::CcdError::Squeezed). A mover added during a step (or given
+/// this marker then) stands at its end pose that step and is swept from the next; one whose
+/// marker is removed is a static from the next rebuild. A mover whose pose is not finite,
+/// has no planar world pose or reaches past the coordinate limit is left out (with a
+/// warning) until its pose is good again; nothing else is affected. A [`Sensor`](super::Sensor)
+/// with it is not swept (it is teleported, as a static sensor is).
+///
+/// ```
+/// use bevy_ccd::prelude::*;
+/// use bevy_ecs::prelude::*;
+/// use bevy_transform::prelude::Transform;
+///
+/// let mut world = World::new();
+/// // A flipper spinning 20 turns a second about its hub.
+/// world.spawn((
+///     Collider::rectangle(1.0, 0.05).unwrap(),
+///     StaticCollider,
+///     MovingTarget,
+///     Velocity { linear: Vec2::ZERO, angular: 20.0 * core::f32::consts::TAU },
+///     Transform::default(),
+/// ));
+/// ```
+#[derive(Component, Reflect, Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[component(on_add = static_added, on_remove = static_added)]
+#[reflect(Component, Default, Debug, Clone)]
+pub struct MovingTarget;
+
 /// Hook of [`StaticCollider`] (addition) and of a static's [`Collider`] (insertion): the static
 /// hierarchy must be rebuilt before the next sweep.
 fn static_added(mut world: DeferredWorld, _: HookContext) {

@@ -42,7 +42,8 @@ use bevy_time::{Fixed, Time};
 pub use crate::geometry::Resolution;
 pub(crate) use components::usable_mass;
 pub use components::{
-    BodyMass, CcdEnabled, Collider, Friction, Restitution, StaticCollider, StepPoses, Velocity,
+    BodyMass, CcdEnabled, Collider, Friction, MovingTarget, Restitution, StaticCollider, StepPoses,
+    Velocity,
 };
 pub use config::CcdConfig;
 pub use diagnostics::CcdDiagnostics;
@@ -60,12 +61,14 @@ use workspace::CcdWorkspace;
 /// # Order of a fixed step (with the default schedules)
 ///
 /// ```text
-/// FixedFirst       CcdSystems::RecordStart       start pose of every CCD body (a teleport
-///                                                made between steps is never swept)
+/// FixedFirst       CcdSystems::RecordStart       start pose of every CCD body and moving
+///                                                target (a teleport made between steps is
+///                                                never swept)
 /// FixedUpdate      your movement systems         move `Transform` (and keep `Velocity`)
 /// FixedPostUpdate  CcdSystems::Step, which runs the CcdSchedule:
 ///                  CcdStepSystems::RecordEnd     end pose, unwrapped angle
-///                  CcdStepSystems::UpdateStatics the static hierarchy kept current
+///                  CcdStepSystems::UpdateStatics the static hierarchy kept current, the
+///                                                moving targets' motions
 ///                  CcdStepSystems::Solve         per body: swept-bound query, bilateral
 ///                                                advancement, clamp or sub-step; write
 ///                                                `Transform`, `Velocity`, `CcdOutcome`
@@ -211,6 +214,7 @@ impl Plugin for CcdPlugin {
             .register_type::<CcdDiagnostics>()
             .register_type::<Collider>()
             .register_type::<StaticCollider>()
+            .register_type::<MovingTarget>()
             .register_type::<CcdEnabled>()
             .register_type::<StepPoses>()
             .register_type::<CcdOutcome>()
@@ -247,7 +251,7 @@ impl Plugin for CcdPlugin {
         .add_systems(self.schedule, run_schedule.in_set(CcdSystems::Step))
         .add_systems(
             CcdStartSchedule,
-            record::record_start.in_set(CcdSystems::RecordStart),
+            (record::record_start, statics::record_movers).in_set(CcdSystems::RecordStart),
         )
         .add_systems(
             CcdSchedule,

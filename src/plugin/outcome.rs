@@ -88,6 +88,11 @@ pub enum CcdError {
     /// A `Transform` on the way to the world is not a planar similarity: a scale that is not
     /// uniform in x and y, not finite or not positive, or a rotation out of the plane.
     UnsupportedTransform,
+    /// A [`MovingTarget`](super::MovingTarget) caught the body against another target (or
+    /// another mover) and it could not get away within the step: it is left at its last pose
+    /// clear of both, where it was struck, at rest. The mover goes on and may overlap it at
+    /// the step's end; the next steps push it out like any body that starts overlapping.
+    Squeezed,
 }
 
 /// What happened to a body in the last step, written by the plugin.

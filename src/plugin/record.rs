@@ -246,7 +246,6 @@ fn record_end_pose(
     velocity: Option<&Velocity>,
     dt: f32,
 ) {
-    use core::f32::consts::{PI, TAU};
     {
         if !sweep.recorded {
             return;
@@ -257,25 +256,7 @@ fn record_end_pose(
             return;
         };
         sweep.end_position = p;
-        // The change of angle wrapped into (-pi, pi]. Both angles come from `atan2`, in
-        // [-pi, pi], so one turn added or taken away is enough; `rem_euclid` (a library
-        // call, `fmodf`) is left for angles set some other way.
-        let mut delta = a - sweep.start_angle;
-        if delta.abs() > TAU {
-            delta = delta.rem_euclid(TAU);
-        }
-        // Arithmetic rather than branches: the angles are random, a branch would be
-        // mispredicted for a good share of the bodies.
-        delta -= TAU * ((delta > PI) as i32 - (delta <= -PI) as i32) as f32;
-        if let Some(v) = velocity {
-            let expected = v.angular * dt;
-            // Whole turns to add: the nearest to (expected - delta) / TAU. A non-finite
-            // velocity adds nothing.
-            let turns = (expected - delta) / TAU;
-            if turns.is_finite() {
-                delta += nearest_whole(turns) * TAU;
-            }
-        }
+        let delta = turn(sweep.start_angle, a, velocity.map(|v| v.angular), dt);
         sweep.end_angle = sweep.start_angle + delta;
         // Where the step leaves the body unless it hits something or fails, which the
         // write-back then corrects: most bodies are not visited there at all.
@@ -283,6 +264,34 @@ fn record_end_pose(
         sweep.resolved_angle = sweep.end_angle;
         sweep.resolved_valid = true;
     }
+}
+
+/// The change of angle from `start` to `end` over a step of `dt`: wrapped into (-pi, pi], then
+/// given the whole turns that bring it nearest to `angular * dt` when an angular velocity is
+/// known ([`record_end`]; moving targets' too).
+#[inline]
+pub(crate) fn turn(start: f32, end: f32, angular: Option<f32>, dt: f32) -> f32 {
+    use core::f32::consts::{PI, TAU};
+    // The change of angle wrapped into (-pi, pi]. Both angles come from `atan2`, in
+    // [-pi, pi], so one turn added or taken away is enough; `rem_euclid` (a library
+    // call, `fmodf`) is left for angles set some other way.
+    let mut delta = end - start;
+    if delta.abs() > TAU {
+        delta = delta.rem_euclid(TAU);
+    }
+    // Arithmetic rather than branches: the angles are random, a branch would be
+    // mispredicted for a good share of the bodies.
+    delta -= TAU * ((delta > PI) as i32 - (delta <= -PI) as i32) as f32;
+    if let Some(angular) = angular {
+        let expected = angular * dt;
+        // Whole turns to add: the nearest to (expected - delta) / TAU. A non-finite
+        // velocity adds nothing.
+        let turns = (expected - delta) / TAU;
+        if turns.is_finite() {
+            delta += nearest_whole(turns) * TAU;
+        }
+    }
+    delta
 }
 
 /// The contiguous pass of [`record_end`] over the root bodies, split over the pool when they

@@ -18,8 +18,8 @@ use super::parallel::{MAX_ITEMS, hand_out, pool, workers};
 use super::record::step_length;
 use super::sensors::{SensorLane, SensorWorld, sense_lane};
 use super::workspace::{
-    BodyEntry, BodyLayers, CcdWorkspace, HAS_LAYERS, HAS_MASS, HAS_VELOCITY, Lane, LayersOf,
-    NUDGED, OVERLAPPING, WAS_CLEAR, Warned,
+    BodyEntry, BodyLayers, COMPOUND, CcdWorkspace, HAS_LAYERS, HAS_MASS, HAS_VELOCITY, Lane,
+    LayersOf, NUDGED, OVERLAPPING, WAS_CLEAR, Warned,
 };
 use super::write::{WriteLookups, WriteQuery, write_lane};
 use super::{
@@ -280,7 +280,10 @@ fn store(body: &mut BodyEntry, outcome: BodyOutcome) {
     if outcome.nudged {
         body.flags |= NUDGED;
     }
-    body.error = outcome.failure.map(CcdError::Toi);
+    body.error = outcome
+        .failure
+        .map(CcdError::Toi)
+        .or(outcome.squeezed.then_some(CcdError::Squeezed));
 }
 
 /// The [`BodyState`] of an entry.
@@ -365,8 +368,15 @@ pub(crate) fn solve_lane(
         while next < chunk.len() && n < SOLVE_BATCH {
             let body = &mut chunk[next];
             // Nothing in reach: the body ends where its user put it, with its velocity,
-            // and `solve_body` would only confirm that (most bodies of a step).
-            if body.error.is_none() && body.candidate_count > 0 {
+            // and `solve_body` would only confirm that (most bodies of a step). Movers are
+            // not among the candidates: the solver finds them along each sweep.
+            let movers = statics.has_movers()
+                && (body.flags & COMPOUND != 0
+                    || statics.movers_may_reach(
+                        body.sweep.swept_disc_aabb(body.reach),
+                        shared.settings.linear_slop,
+                    ));
+            if body.error.is_none() && (body.candidate_count > 0 || movers) {
                 // The targets' records, touched alongside the colliders so that these
                 // misses overlap too.
                 if touch {

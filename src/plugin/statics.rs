@@ -7,19 +7,26 @@
 //! part). Each collider becomes one item of the hierarchy, at its world pose composed from the
 //! `Transform`s at the time the step runs ([`pose_in`]), its shape scaled by the chain's
 //! uniform scale.
+//!
+//! A [`MovingTarget`]'s items are listed too but kept out of the built hierarchy: each step
+//! they get their motion from the pose [`record_movers`] saw at the step's start to their pose
+//! now ([`move_movers`]), and moving them rebuilds nothing.
 
 use bevy_ecs::prelude::*;
 use bevy_ecs::system::{SystemChangeTick, SystemParam};
+use bevy_time::{Fixed, Time};
 use bevy_transform::components::Transform;
 
 use super::hierarchy::{
     Ancestry, MAX_HIERARCHY_DEPTH, Planar, TickedAncestry, moved_since, pose_in, push_ancestors,
 };
+use super::record::{step_length, turn};
 use super::workspace::CcdWorkspace;
 use super::{
-    CcdConfig, CcdDiagnostics, CcdEnabled, Collider, CollisionLayers, Sensor, StaticCollider,
+    CcdConfig, CcdDiagnostics, CcdEnabled, Collider, CollisionLayers, MovingTarget, Sensor,
+    StaticCollider, Velocity,
 };
-use crate::geometry::{self, Aabb, Pose, StaticItem};
+use crate::geometry::{self, Aabb, Pose, StaticItem, Sweep};
 
 /// What the rebuild reads of a target.
 type StaticData = (
@@ -28,6 +35,7 @@ type StaticData = (
     Option<&'static Transform>,
     Option<&'static CollisionLayers>,
     Has<ChildOf>,
+    Has<MovingTarget>,
 );
 /// What the rebuild reads of a part.
 type PartData = (Entity, &'static Collider, Option<&'static CollisionLayers>);
@@ -55,8 +63,13 @@ pub(crate) struct StaticWatch<'w, 's> {
     kinds: Query<'w, 's, Kinds>,
     ancestry: Ancestry<'w, 's>,
     ticked: TickedAncestry<'w, 's>,
-    /// Targets moved: one tick read per target, as without hierarchies.
-    moved: Query<'w, 's, (), (Solid, Changed<Transform>)>,
+    /// Targets moved: one tick read per target, as without hierarchies. Movers are swept,
+    /// not rebuilt.
+    moved: Query<'w, 's, (), (Solid, Without<MovingTarget>, Changed<Transform>)>,
+    /// The movers' velocities, which say how many turns they make.
+    velocities: Query<'w, 's, &'static Velocity, (Solid, With<MovingTarget>)>,
+    /// The movers: their parts' moves rebuild nothing.
+    movers: Query<'w, 's, (), (Solid, With<MovingTarget>)>,
     /// Targets reparented: only those with a parent are looked at.
     reparented: Query<'w, 's, (), (Solid, Changed<ChildOf>)>,
     moved_parts: Query<'w, 's, Entity, (PartFilter, With<Collider>, Moved)>,
@@ -105,11 +118,14 @@ pub(crate) fn update_statics(
     config: Res<CcdConfig>,
     mut workspace: ResMut<CcdWorkspace>,
     mut diagnostics: ResMut<CcdDiagnostics>,
+    time: Option<Res<Time<Fixed>>>,
     mut watch: StaticWatch,
 ) {
     let limit = geometry::max_world_coordinate(config.linear_slop);
     let workspace = workspace.as_mut();
     rebuild_if_stale(workspace, &mut watch, limit);
+    let dt = step_length(&config, time.as_deref());
+    move_movers(workspace, &watch, dt, limit);
     let (statics, rebuilds) = (workspace.statics.items().len(), workspace.rebuilds);
     if diagnostics.statics != statics || diagnostics.static_rebuilds != rebuilds {
         diagnostics.statics = statics;
@@ -129,6 +145,7 @@ fn stale(workspace: &CcdWorkspace, watch: &mut StaticWatch) -> bool {
         lost_transform,
         lost_parent,
         ticks,
+        movers,
         ..
     } = watch;
     let known = |entity: Entity| {
@@ -143,17 +160,22 @@ fn stale(workspace: &CcdWorkspace, watch: &mut StaticWatch) -> bool {
         .fold(false, |lost, entity| lost | known(entity));
     lost || !moved.is_empty()
         || !reparented.is_empty()
-        || moved_parts
-            .iter()
-            .any(|e| workspace.static_part(e).is_some() || owner(e, kinds).is_some())
+        || moved_parts.iter().any(|e| {
+            let listed = workspace.static_part(e);
+            let target = listed.map(|i| workspace.static_entities[i as usize]);
+            target
+                .or_else(|| owner(e, kinds))
+                .is_some_and(|t| !movers.contains(t))
+        })
         || workspace
             .static_ancestors
             .iter()
             .any(|&a| moved_since(a, ticked, ticks.last_run(), ticks.this_run()))
 }
 
-/// One item of the hierarchy before it is sorted: target, collider, shape and pose, layers.
-type Listed = (Entity, Entity, StaticItem, CollisionLayers);
+/// One item of the hierarchy before it is sorted: target, collider, shape and pose, layers,
+/// whether it moves.
+type Listed = (Entity, Entity, StaticItem, CollisionLayers, bool);
 
 /// Rebuilds the hierarchy of `workspace` unless it holds every static as it is now, each
 /// within `limit` of the origin.
@@ -198,7 +220,7 @@ fn rebuild_if_stale(workspace: &mut CcdWorkspace, watch: &mut StaticWatch, limit
     let mut list: Vec<Listed> = Vec::new();
     let mut ancestors = core::mem::take(&mut workspace.static_ancestors);
     ancestors.clear();
-    for (entity, collider, transform, layers, has_parent) in statics.iter() {
+    for (entity, collider, transform, layers, has_parent, moving) in statics.iter() {
         let Some(collider) = collider else {
             continue;
         };
@@ -206,66 +228,163 @@ fn rebuild_if_stale(workspace: &mut CcdWorkspace, watch: &mut StaticWatch, limit
         let pose = match (has_parent, transform) {
             (false, Some(transform)) => Planar::of(transform),
             _ => {
-                push_ancestors(entity, ancestry, &mut ancestors);
+                // A mover's ancestors move it, not the hierarchy.
+                if !moving {
+                    push_ancestors(entity, ancestry, &mut ancestors);
+                }
                 pose_in(entity, None, ancestry)
             }
         };
+        let layers = layers.copied().unwrap_or_default();
         match item(collider, pose) {
-            Ok(item) => list.push((entity, entity, item, layers.copied().unwrap_or_default())),
+            Ok(item) => list.push((entity, entity, item, layers, moving)),
             Err(error) => warn(entity, error),
         }
     }
     for (entity, collider, layers) in parts.iter() {
         // A part below a sensor is not a solid target's (a sensor is one collider).
-        let Some(target) = owner(entity, kinds).filter(|t| statics.contains(*t)) else {
+        let Some((target, (_, _, _, target_layers, _, moving))) =
+            owner(entity, kinds).and_then(|t| statics.get(t).ok().map(|data| (t, data)))
+        else {
             continue;
         };
-        push_ancestors(entity, ancestry, &mut ancestors);
+        if !moving {
+            push_ancestors(entity, ancestry, &mut ancestors);
+        }
         // The part's own layers, else its target's.
-        let layers = layers
-            .or_else(|| statics.get(target).ok().and_then(|(_, _, _, l, _)| l))
-            .copied()
-            .unwrap_or_default();
+        let layers = layers.or(target_layers).copied().unwrap_or_default();
         match item(collider, pose_in(entity, None, ancestry)) {
-            Ok(item) => list.push((target, entity, item, layers)),
+            Ok(item) => list.push((target, entity, item, layers, moving)),
             Err(error) => warn(entity, error),
         }
     }
     ancestors.sort_unstable();
     ancestors.dedup();
     workspace.static_ancestors = ancestors;
-    list.sort_by_key(|(target, collider, _, _)| (*target, *collider));
+    list.sort_by_key(|(target, collider, _, _, _)| (*target, *collider));
     workspace.static_entities.clear();
     workspace
         .static_entities
-        .extend(list.iter().map(|(target, _, _, _)| *target));
+        .extend(list.iter().map(|(target, _, _, _, _)| *target));
     workspace.static_colliders.clear();
     workspace
         .static_colliders
-        .extend(list.iter().map(|(_, collider, _, _)| *collider));
+        .extend(list.iter().map(|(_, collider, _, _, _)| *collider));
     workspace.static_parts.clear();
     workspace.static_parts.extend(
         list.iter()
             .enumerate()
-            .filter(|(_, (target, collider, _, _))| target != collider)
-            .map(|(index, (_, collider, _, _))| (*collider, index as u32)),
+            .filter(|(_, (target, collider, _, _, _))| target != collider)
+            .map(|(index, (_, collider, _, _, _))| (*collider, index as u32)),
     );
+    workspace.movers.clear();
+    workspace.movers.extend(
+        list.iter()
+            .enumerate()
+            .filter(|(_, (_, _, _, _, moving))| *moving)
+            .map(|(index, (target, collider, _, _, _))| (*target, *collider, index as u32)),
+    );
+    let movers: Vec<u32> = workspace.movers.iter().map(|m| m.2).collect();
     workspace.static_parts.sort_unstable();
     // Layers are kept only when some target has other than the default, so that a world
     // without layers skips the filter altogether.
     workspace.static_layers.clear();
     if list
         .iter()
-        .any(|(_, _, _, l)| *l != CollisionLayers::DEFAULT)
+        .any(|(_, _, _, l, _)| *l != CollisionLayers::DEFAULT)
     {
         workspace
             .static_layers
-            .extend(list.iter().map(|(_, _, _, l)| *l));
+            .extend(list.iter().map(|(_, _, _, l, _)| *l));
     }
-    workspace
-        .statics
-        .rebuild(list.into_iter().map(|(_, _, item, _)| item));
+    let items = list.into_iter().map(|(_, _, item, _, _)| item);
+    workspace.statics.rebuild_with_movers(items, &movers);
     workspace.statics_ready = true;
     workspace.statics_limit = limit;
     workspace.rebuilds += 1;
+}
+
+/// What [`record_movers`] reads: each moving target (a solid static with a [`MovingTarget`]).
+type Movers<'w, 's> = Query<'w, 's, Entity, (Solid, With<MovingTarget>)>;
+
+/// [`CcdSystems::RecordStart`](super::CcdSystems::RecordStart): the world pose of every moving
+/// target at the start of the step, which its motion starts from. A mover whose chain has no
+/// world pose now has no start: it stands at its end pose this step.
+pub(crate) fn record_movers(
+    mut workspace: ResMut<CcdWorkspace>,
+    movers: Movers,
+    ancestry: Ancestry,
+) {
+    let starts = &mut workspace.mover_starts;
+    starts.clear();
+    for entity in &movers {
+        if let Ok(pose) = pose_in(entity, None, &ancestry) {
+            starts.push((entity, pose.position, pose.angle));
+        }
+    }
+    starts.sort_unstable_by_key(|(entity, _, _)| *entity);
+}
+
+/// Gives each moving target's items their motion over this step: from the target's pose at
+/// the start ([`record_movers`]) to its pose now, turning by [`turn`] (its [`Velocity`] says how
+/// many whole turns), each item about the target's origin. An item whose pose is not finite,
+/// has no planar world pose or whose sweep reaches past `limit` is not hit this step (with a
+/// warning), and the hierarchy is rebuilt at the next step, which leaves it out until its
+/// pose is good again.
+fn move_movers(workspace: &mut CcdWorkspace, watch: &StaticWatch, dt: f32, limit: f32) {
+    if workspace.movers.is_empty() {
+        return;
+    }
+    let within = |bounds: Aabb| bounds.min.abs().max(bounds.max.abs()).max_element() <= limit;
+    let mut motions = core::mem::take(&mut workspace.mover_motions);
+    motions.clear();
+    let mut bad = false;
+    for &(target, collider, index) in &workspace.movers {
+        let now = pose_in(target, None, &watch.ancestry);
+        let item_now = if collider == target {
+            now
+        } else {
+            pose_in(collider, None, &watch.ancestry)
+        };
+        let proxy = workspace.statics.items()[index as usize].proxy;
+        let sweep = now.and_then(|now| {
+            let item_now = item_now?;
+            let start = workspace
+                .mover_starts
+                .binary_search_by_key(&target, |(entity, _, _)| *entity)
+                .map_or((now.position, now.angle), |at| {
+                    let (_, position, angle) = workspace.mover_starts[at];
+                    (position, angle)
+                });
+            let angular = watch.velocities.get(target).ok().map(|v| v.angular);
+            let delta = turn(start.1, now.angle, angular, dt);
+            // The target's origin in the item's frame: the point the item turns about.
+            let center =
+                Pose::new(item_now.position, item_now.angle).inv_transform_point(now.position);
+            let (a1, c1) = (item_now.angle, now.position);
+            let sweep = Sweep::new(center, start.0, a1 - delta, c1, a1);
+            if sweep.is_finite() && within(proxy.swept_aabb(&sweep)) {
+                Ok(sweep)
+            } else {
+                Err(super::CcdError::CoordinatesTooLarge)
+            }
+        });
+        match sweep {
+            Ok(sweep) => motions.push((index, sweep)),
+            Err(error) => {
+                log::warn!(
+                    "bevy_ccd: moving target {collider} not hit this step: {error:?} (a \
+                     non-finite Transform, a chain with no planar world pose, or a sweep beyond \
+                     {limit} m from the origin)"
+                );
+                workspace.statics.disable(index as usize);
+                bad = true;
+            }
+        }
+    }
+    workspace.statics.move_targets(motions.iter().copied());
+    workspace.mover_motions = motions;
+    if bad {
+        workspace.statics_changed();
+    }
 }

@@ -144,6 +144,14 @@ pub(crate) struct CcdWorkspace {
     /// pose into a local `Transform` with, or why their chain has none. Empty in a world
     /// without child bodies.
     pub(crate) child_frames: Vec<(Entity, Result<Planar, CcdError>)>,
+    /// The moving targets' items: target entity, collider entity and item index, in item
+    /// order ([`MovingTarget`](super::MovingTarget)).
+    pub(crate) movers: Vec<(Entity, Entity, u32)>,
+    /// The moving targets' world poses (position, angle) at the start of the step, by target
+    /// entity ([`record_movers`](super::statics::record_movers)).
+    pub(crate) mover_starts: Vec<(Entity, Vec2, f32)>,
+    /// This step's motions of the movers, handed to the static set (kept for its capacity).
+    pub(crate) mover_motions: Vec<(u32, geometry::Sweep)>,
     /// The layers of each target, in target order; empty when every target has the default
     /// layers.
     pub(crate) static_layers: Vec<CollisionLayers>,

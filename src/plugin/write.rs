@@ -61,7 +61,8 @@ pub(crate) fn write_lane(
         let Ok((mut transform, mut sweep, velocity, mut toi)) = bodies.get_mut(body.entity) else {
             continue;
         };
-        let failed = matches!(body.error, Some(e) if !matches!(e, CcdError::Toi(_)));
+        let failed =
+            matches!(body.error, Some(e) if !matches!(e, CcdError::Toi(_) | CcdError::Squeezed));
         if failed {
             sweep.bypass_change_detection().resolved_valid = false;
             let mut error = body.error.unwrap_or(CcdError::InvalidBodyData);

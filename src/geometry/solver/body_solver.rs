@@ -131,10 +131,11 @@ pub struct BodyOutcome {
     /// pressed it to the slop's depth. `position` is then not on the sweep given; the move is
     /// at most a few tenths of a millimetre at the default slop.
     pub nudged: bool,
-    /// The body was caught by a moving target it could not get away from within the step:
-    /// pressed between it and another target (or another mover), or out of sub-steps. It is
-    /// left at its last pose clear of both, where it was struck; the mover goes on and may
-    /// overlap it by the step's end (from where it is pushed out at the next steps).
+    /// The body was caught between a moving target and another target (or another mover) and
+    /// could not get away within the step. It is left at its last pose clear of both, where it
+    /// was struck; the mover goes on and may overlap it by the step's end (from where it is
+    /// pushed out at the next steps). A body held by one mover alone that runs out of
+    /// sub-steps rides it for the rest of the step instead.
     pub squeezed: bool,
 }
 
@@ -808,9 +809,28 @@ fn solve(
                 // whatever velocity the responses left cannot move it. It is at rest.
                 velocity = (Vec2::ZERO, 0.0);
             }
-            // Held against a moving target that goes on (caught between it and another
-            // target, or out of sub-steps): left where it is, short of both.
-            result.squeezed = on_mover && step_fraction < 1.0;
+            if on_mover && step_fraction < 1.0 {
+                let first = contacts[0].0;
+                let alone = contacts.iter().all(|c| c.0 == first);
+                match statics.motion(first).filter(|_| alone) {
+                    // Held by one mover alone, out of sub-steps or wedged on it: it rides the
+                    // mover for the rest of the step, where it is relative to it, moving with
+                    // it (nothing else is searched on the way).
+                    Some(m) => {
+                        let (from, to) = (m.pose_at(step_fraction), m.pose_at(1.0));
+                        result.position = to.transform_point(from.inv_transform_point(pose.p));
+                        result.angle = angle + (m.a1 - m.angle_at(step_fraction));
+                        if stalled >= 2
+                            && let Some(Some(carry)) = frames.first()
+                        {
+                            velocity = *carry;
+                        }
+                    }
+                    // Caught between a mover and another target: left where it is, short of
+                    // both.
+                    None => result.squeezed = true,
+                }
+            }
             break;
         }
         // Spend the rest of the step from the impact with the new velocity.

@@ -51,8 +51,10 @@ pub struct StaticSet {
     /// `movers`).
     movers: Vec<u32>,
     motions: Vec<Sweep>,
-    /// The hierarchy over the movers' swept boxes, rebuilt by [`Self::move_targets`].
+    /// The hierarchy over the movers' swept boxes, rebuilt by [`Self::move_targets`], and
+    /// the box holding them all.
     mover_bvh: Bvh,
+    mover_bounds: Option<Aabb>,
 }
 
 impl StaticSet {
@@ -158,6 +160,7 @@ impl StaticSet {
             self.scratch.push((index, proxy.swept_aabb(sweep)));
         }
         self.mover_bvh.build(&self.scratch);
+        self.mover_bounds = self.scratch.iter().map(|(_, b)| *b).reduce(Aabb::union);
     }
 
     /// Whether any target moves ([`Self::rebuild_with_movers`]).
@@ -171,6 +174,14 @@ impl StaticSet {
     pub fn motion(&self, index: u32) -> Option<&Sweep> {
         let slot = self.movers.binary_search(&index).ok()?;
         self.motions.get(slot)
+    }
+
+    /// Whether some mover's swept box may overlap `bounds` grown by `margin` (m): a quick,
+    /// conservative test against the box holding them all.
+    #[inline]
+    pub fn movers_may_reach(&self, bounds: Aabb, margin: f32) -> bool {
+        self.mover_bounds
+            .is_some_and(|all| all.overlaps(&bounds.expanded(margin)))
     }
 
     /// Appends to `out` the movers whose swept boxes overlap `bounds` grown by `margin` (m),
