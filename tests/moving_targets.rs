@@ -9,7 +9,7 @@
 mod support;
 
 use bevy_app::{App, FixedUpdate};
-use bevy_ccd::geometry::{DistanceInput, Pose, SimplexCache, shape_distance};
+use bevy_ccd::geometry::{Aabb, DistanceInput, Pose, SimplexCache, shape_distance};
 use bevy_ccd::prelude::*;
 use bevy_ccd::testing::planar_pose;
 use bevy_ccd_fixtures::{ArenaConfig, Liveness, assert_contained, spawn_arena};
@@ -512,7 +512,7 @@ fn mover_arena(
     bodies: usize,
     parallel: bool,
     root: Option<Drive>,
-) -> (App, Vec<Entity>, bevy_ccd::geometry::Aabb) {
+) -> (App, Vec<Entity>, Aabb) {
     let mut app = driven_app(mode, G);
     app.insert_resource(CcdConfig {
         resolution: mode,
@@ -590,21 +590,31 @@ fn mover_arena(
     (app, kept, arena.interior)
 }
 
+/// Steps an arena of movers (1,000 bodies) 600 times, asserting after each step that no body
+/// left the box or sank deeper than the slop into a wall or a mover, and at the end that none
+/// stayed frozen.
+fn contained_for_600_steps(
+    (mut app, bodies, interior): (App, Vec<Entity>, Aabb),
+    mode: Resolution,
+) -> App {
+    assert_eq!(bodies.len(), 1000);
+    let mut liveness = Liveness::default();
+    for k in 0..600 {
+        step(&mut app);
+        liveness.observe(app.world_mut());
+        assert_contained(app.world_mut(), interior, &format!("{mode:?}, step {k}"));
+    }
+    let frozen = liveness.frozen();
+    assert!(frozen.is_empty(), "{mode:?}: frozen {frozen:?}");
+    app
+}
+
 /// The arena of movers, 1,000 bodies, 600 steps, both modes: no body leaves the box, none
 /// ends a step deeper than the slop in a wall or a mover, none stays frozen.
 #[test]
 fn the_arena_of_movers_keeps_every_body_in_and_out_of_the_movers() {
     for mode in MODES {
-        let (mut app, bodies, interior) = mover_arena(mode, 1000, true, None);
-        assert_eq!(bodies.len(), 1000);
-        let mut liveness = Liveness::default();
-        for k in 0..600 {
-            step(&mut app);
-            liveness.observe(app.world_mut());
-            assert_contained(app.world_mut(), interior, &format!("{mode:?}, step {k}"));
-        }
-        let frozen = liveness.frozen();
-        assert!(frozen.is_empty(), "{mode:?}: frozen {frozen:?}");
+        let app = contained_for_600_steps(mover_arena(mode, 1000, true, None), mode);
         let struck = app
             .world()
             .resource::<Log>()
@@ -656,15 +666,6 @@ fn the_arena_of_movers_under_a_moving_rotating_root_keeps_every_body_in() {
         spin: 0.2,
     };
     for mode in MODES {
-        let (mut app, bodies, interior) = mover_arena(mode, 1000, true, Some(root));
-        assert_eq!(bodies.len(), 1000);
-        let mut liveness = Liveness::default();
-        for k in 0..600 {
-            step(&mut app);
-            liveness.observe(app.world_mut());
-            assert_contained(app.world_mut(), interior, &format!("{mode:?}, step {k}"));
-        }
-        let frozen = liveness.frozen();
-        assert!(frozen.is_empty(), "{mode:?}: frozen {frozen:?}");
+        let _ = contained_for_600_steps(mover_arena(mode, 1000, true, Some(root)), mode);
     }
 }

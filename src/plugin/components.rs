@@ -154,7 +154,8 @@ impl Collider {
 /// Marks a collider as a static target: CCD bodies are swept against it.
 ///
 /// Statics live in a bounding-volume hierarchy that is rebuilt when one is added, removed,
-/// moved or reshaped.
+/// moved or reshaped; moving one is a teleport. A static that moves during a step (a platform,
+/// a door, a blade) should be a [`MovingTarget`]: it is swept instead, and not rebuilt.
 ///
 /// A target may sit at any depth of a `ChildOf` hierarchy: its world pose is composed from the
 /// `Transform`s of its chain when the step runs, its collider scaled by the chain's uniform

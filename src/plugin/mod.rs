@@ -306,7 +306,8 @@ pub enum CcdStepSystems {
     /// With [`CcdConfig::parallel`], split over the pool from 4,096 bodies.
     RecordEnd,
     /// Keeps the static hierarchy current: rebuilt when a static or a part of one was added,
-    /// removed, moved, reparented or reshaped, or one of their ancestors moved.
+    /// removed, moved, reparented or reshaped, or one of their ancestors moved; gives each
+    /// [`MovingTarget`] its motion over the step (no rebuild).
     UpdateStatics,
     /// Lists the swept bodies, queries the hierarchy with each one's swept bound (the broad
     /// phase), runs its time of impact and resolution, and writes its `Transform`,
