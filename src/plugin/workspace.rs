@@ -208,6 +208,7 @@ impl CcdWorkspace {
         for index in first..first + count {
             self.statics.disable(index);
         }
+        self.sensors.removed(entity);
     }
 
     /// A part's [`Collider`](super::Collider) was removed: if it is in the hierarchy, the
