@@ -35,6 +35,9 @@ use bevy_transform::components::Transform;
 /// assert_eq!(world.get::<Collider>(ball), Some(&Collider::circle(0.2).unwrap()));
 /// ```
 ///
+/// A body's or a static's uniform world scale scales its collider (a body's mass by its
+/// square, its inertia by its fourth power).
+///
 /// A collider is *immutable*: to reshape one, insert a new `Collider` on the entity. The plugin
 /// learns of every insertion and removal from the component's hooks, so it rebuilds its static
 /// hierarchy only when a static's shape really changed, without scanning every static each step
@@ -149,6 +152,31 @@ impl Collider {
             inertia: self.unit_mass.inertia * density,
         }
     }
+
+    /// The proxy and core radius of this collider on a body of uniform world `scale`: itself
+    /// at 1, its points and radii times `scale` otherwise.
+    #[inline]
+    pub(crate) fn scaled(&self, scale: f32) -> (ShapeProxy, f32) {
+        if scale == 1.0 {
+            (self.proxy, self.core_radius)
+        } else {
+            (self.proxy.scaled(scale), self.core_radius * scale)
+        }
+    }
+
+    /// [`Self::mass_properties`] at unit density on a body of uniform world `scale`: the mass
+    /// times `scale²` (an area), the inertia times `scale⁴` (an area times a length squared);
+    /// the centre is left in the unscaled entity frame.
+    #[inline]
+    pub(crate) fn scaled_unit_mass(&self, scale: f32) -> (f32, f32) {
+        let props = self.mass_properties(1.0);
+        if scale == 1.0 {
+            (props.mass, props.inertia)
+        } else {
+            let area = scale * scale;
+            (props.mass * area, props.inertia * area * area)
+        }
+    }
 }
 
 /// Marks a collider as a static target: CCD bodies are swept against it.
@@ -261,9 +289,14 @@ fn poses_inserted(mut world: DeferredWorld, context: HookContext) {
                 let at = world.get_entity(e).ok()?;
                 Some((at.get::<Transform>(), at.get::<ChildOf>()))
             })
-            .map_or((Vec2::NAN, 0.0), |(world, _)| (world.position, world.angle)),
+            .map_or((Vec2::NAN, 0.0, 1.0), |(world, _)| {
+                (world.position, world.angle, world.scale)
+            }),
         ),
-        (own, _) => own.map(planar_pose),
+        (own, _) => own.map(|own| {
+            let (position, angle) = planar_pose(own);
+            (position, angle, super::hierarchy::body_scale(own))
+        }),
     };
     let enabled = entity.get::<CcdEnabled>().is_some_and(|e| e.0);
     let step = world
@@ -276,7 +309,8 @@ fn poses_inserted(mut world: DeferredWorld, context: HookContext) {
     if let Some(shape) = shape {
         shape.write(sweep);
     }
-    if let Some((position, angle)) = pose {
+    if let Some((position, angle, scale)) = pose {
+        sweep.scale = scale;
         sweep.start_position = position;
         sweep.start_angle = angle;
         sweep.end_position = position;
@@ -400,7 +434,7 @@ impl Default for CcdEnabled {
 /// let poses = world.get::<StepPoses>(body).unwrap();
 /// assert_eq!(poses.start(), poses.end());
 /// ```
-#[derive(Component, Reflect, Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Component, Reflect, Clone, Copy, Debug, PartialEq)]
 #[component(on_insert = poses_inserted)]
 #[reflect(Component, Default, Debug, Clone)]
 pub struct StepPoses {
@@ -442,6 +476,31 @@ pub struct StepPoses {
     /// validated, but the mass of a huge one can overflow). Kept by the hooks.
     #[reflect(ignore)]
     pub(crate) mass_ok: bool,
+    /// The body's uniform world scale at the end of the step, which scales its collider and
+    /// mass; 0 when its `Transform` is not a planar similarity, NaN when it is not finite
+    /// ([`body_scale`](super::hierarchy::body_scale)).
+    pub(crate) scale: f32,
+}
+
+impl Default for StepPoses {
+    fn default() -> Self {
+        Self {
+            start_position: Vec2::ZERO,
+            start_angle: 0.0,
+            end_position: Vec2::ZERO,
+            end_angle: 0.0,
+            resolved_position: Vec2::ZERO,
+            resolved_angle: 0.0,
+            local_center: Vec2::ZERO,
+            recorded: false,
+            recorded_in: 0,
+            warned_no_collider: false,
+            resolved_valid: false,
+            reach: 0.0,
+            mass_ok: false,
+            scale: 1.0,
+        }
+    }
 }
 
 impl StepPoses {
@@ -467,15 +526,22 @@ impl StepPoses {
         self.recorded
     }
 
-    /// Centre of mass in the body frame (m), the [`Collider`]'s.
+    /// Centre of mass in the body frame (m), the [`Collider`]'s times the body's scale.
     pub fn local_center(&self) -> Vec2 {
-        self.local_center
+        self.local_center * self.scale
+    }
+
+    /// The body's uniform world scale in the last step (its `Transform`'s, times its
+    /// parents'), which scales its collider and mass; 0 when its `Transform` did not keep the
+    /// plane, NaN when it was not finite (the body then had an error).
+    pub fn scale(&self) -> f32 {
+        self.scale
     }
 
     /// The geometry-layer sweep from the start to the user's end pose.
     pub fn motion(&self) -> geometry::Sweep {
         geometry::Sweep::from_origins(
-            self.local_center,
+            self.local_center(),
             self.start_position,
             self.start_angle,
             self.end_position,

@@ -281,7 +281,10 @@ pub(crate) fn body_colliders(
             .iter()
             .map(|(body, collider, transform)| {
                 let layers = layers_of(body).unwrap_or_default();
-                (body, body, pose(transform), *collider.proxy(), layers)
+                // Scaled as the plugin sweeps it (a `Transform` it refuses, as it is).
+                let scale = super::hierarchy::body_scale(transform);
+                let (proxy, _) = collider.scaled(if scale > 0.0 { scale } else { 1.0 });
+                (body, body, pose(transform), proxy, layers)
             })
             .collect();
         for (part, collider) in &parts {

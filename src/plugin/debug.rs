@@ -152,26 +152,18 @@ fn draw_ccd(
         if !(start.is_finite()
             && end.is_finite()
             && start_angle.is_finite()
-            && end_angle.is_finite())
+            && end_angle.is_finite()
+            && poses.scale() > 0.0)
         {
             continue;
         }
+        let (proxy, _) = collider.scaled(poses.scale());
         if let Some(colour) = colours.sweeps {
-            outline(
-                &mut gizmos,
-                collider.proxy(),
-                Pose::new(start, start_angle),
-                colour,
-            );
+            outline(&mut gizmos, &proxy, Pose::new(start, start_angle), colour);
             gizmos.line_2d(start, end, colour);
         }
         if let Some(colour) = colours.bodies {
-            outline(
-                &mut gizmos,
-                collider.proxy(),
-                Pose::new(end, end_angle),
-                colour,
-            );
+            outline(&mut gizmos, &proxy, Pose::new(end, end_angle), colour);
         }
     }
     let Some(colour) = colours.impacts else {

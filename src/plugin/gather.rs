@@ -25,12 +25,13 @@ use crate::geometry::{self, Aabb, QUERY_GROUP, StaticSet};
 pub(crate) const GROUP_MIN_BODIES: usize = 4096;
 
 impl BodyEntry {
-    /// An entry with the recorded poses of `poses`, nothing else filled in yet.
+    /// An entry with the recorded poses of `poses`, nothing else filled in yet; the collider's
+    /// centre of mass and reach scaled by the body's scale.
     pub(crate) fn new(entity: Entity, poses: &StepPoses) -> Self {
         Self {
             entity,
             sweep: geometry::Sweep {
-                local_center: poses.local_center,
+                local_center: poses.local_center(),
                 c0: poses.start_position,
                 c1: poses.end_position,
                 a0: poses.start_angle,
@@ -51,7 +52,9 @@ impl BodyEntry {
             angle: 0.0,
             flags: if poses.mass_ok { COLLIDER_MASS_OK } else { 0 },
             error: None,
-            reach: poses.reach,
+            reach: poses.reach * poses.scale,
+            scale: poses.scale,
+            swept: 1.0,
         }
     }
 }
@@ -179,25 +182,34 @@ pub(crate) fn list_bodies<'a>(
 /// mass is taken from the collider in the solve, when a [`BodyMass`] gave none and the body
 /// has targets in reach.
 ///
-/// `limit` is [`geometry::max_world_coordinate`] of the slop: a body any point of which is
-/// further from the origin along an axis, at the start or the end of the step, is
-/// [`CcdError::CoordinatesTooLarge`].
+/// `limit` is [`geometry::max_world_coordinate`] of the slop. A body is within it when its
+/// centre of mass plus its reach (the farthest any point of its collider can be from the
+/// centre of mass, whatever the angle) is within it on both axes: one that is not at the
+/// start of the step is [`CcdError::CoordinatesTooLarge`]. A step that starts within it and
+/// ends beyond it is swept only as far as the limit ([`up_to_limit`], `body.swept`): a target
+/// on the way stops the body as on any step; with none, the write-back stops it at the limit.
 pub(crate) fn fill(body: &mut BodyEntry, limit: f32) -> Result<(), CcdError> {
     let raw = body.sweep;
-    let motion = geometry::Sweep::from_origins(raw.local_center, raw.c0, raw.a0, raw.c1, raw.a1);
-    if !motion.is_finite() {
+    let mut motion =
+        geometry::Sweep::from_origins(raw.local_center, raw.c0, raw.a0, raw.c1, raw.a1);
+    if !motion.is_finite() || body.scale.is_nan() {
         return Err(CcdError::NonFiniteTransform);
+    }
+    // A compound body's parts are placed and scaled once, when they change, not every step
+    // with the body's scale: such a body must keep the scale 1.
+    if body.scale == 0.0 || (body.flags & COMPOUND != 0 && body.scale != 1.0) {
+        return Err(CcdError::UnsupportedTransform);
     }
     // The centre of mass plus the reach about it bounds every point of the shape. A NaN reach
     // passes here and is caught below.
-    let big = motion
-        .c0
-        .abs()
-        .max_element()
-        .max(motion.c1.abs().max_element())
-        + body.reach;
-    if big > limit {
+    if motion.c0.abs().max_element() + body.reach > limit {
         return Err(CcdError::CoordinatesTooLarge);
+    }
+    if motion.c1.abs().max_element() + body.reach > limit {
+        // Short of the limit by a few roundings of a coordinate there, so that the next step,
+        // which starts from the body's origin at the end of this one, starts within it.
+        let margin = 8.0 * f32::EPSILON * limit;
+        (motion, body.swept) = up_to_limit(motion, limit - body.reach - margin);
     }
     let mass_ok = if body.flags & HAS_MASS != 0 {
         usable_mass(body.mass, body.inertia)
@@ -216,6 +228,31 @@ pub(crate) fn fill(body: &mut BodyEntry, limit: f32) -> Result<(), CcdError> {
     }
     body.sweep = motion;
     Ok(())
+}
+
+/// The part of `motion` (a centre-of-mass sweep that starts within `bound` of the origin on
+/// both axes and ends beyond it) up to where its centre first comes `bound` from the origin on
+/// an axis, and the fraction of `motion` that is. In `f64`: the end may be anywhere up to
+/// `f32::MAX`, and the fraction of a long step tiny.
+fn up_to_limit(motion: geometry::Sweep, bound: f32) -> (geometry::Sweep, f32) {
+    let (c0, c1, b) = (motion.c0.as_dvec2(), motion.c1.as_dvec2(), f64::from(bound));
+    let d = c1 - c0;
+    // On an axis that ends beyond `±b` the centre crosses it (with the end's sign) at
+    // `(±b - start) / (end - start)`, in `[0, 1)` since `|start| <= b < |end|`.
+    let mut t = 1.0f64;
+    for (start, end, step) in [(c0.x, c1.x, d.x), (c0.y, c1.y, d.y)] {
+        if end.abs() > b {
+            t = t.min((b.copysign(end) - start) / step);
+        }
+    }
+    let t = t.clamp(0.0, 1.0);
+    // Rounded to `f32` within the bound, not past it.
+    let c = (c0 + t * d)
+        .as_vec2()
+        .clamp(Vec2::splat(-bound), Vec2::splat(bound));
+    let a = f64::from(motion.a0) + t * (f64::from(motion.a1) - f64::from(motion.a0));
+    let sweep = geometry::Sweep::new(motion.local_center, motion.c0, motion.a0, c, a as f32);
+    (sweep, t as f32)
 }
 
 /// What the broad phase of a lane reads: the static targets and the step's settings.
@@ -321,7 +358,11 @@ impl Gather<'_, '_, '_, '_> {
             let bounds = if body.sweep.a0 != body.sweep.a1 || body.flags & COMPOUND != 0 {
                 body.sweep.swept_disc_aabb(body.reach)
             } else if let Ok(collider) = self.colliders.get(body.entity) {
-                collider.proxy().swept_aabb(&body.sweep)
+                if body.scale == 1.0 {
+                    collider.proxy().swept_aabb(&body.sweep)
+                } else {
+                    collider.scaled(body.scale).0.swept_aabb(&body.sweep)
+                }
             } else {
                 body.error = Some(CcdError::InvalidBodyData);
                 continue;

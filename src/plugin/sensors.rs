@@ -336,9 +336,9 @@ pub(crate) fn sense_lane(
         let start = crossings.len();
         let layers = (shared.body_layers)(body);
         let accepts = |sensor: u32| layers.interacts(sensors.layers[sensor as usize]);
-        let proxy = collider.proxy();
+        let (proxy, _) = collider.scaled(body.scale);
         sense_path(
-            proxy,
+            &proxy,
             pieces,
             &sensors.set,
             accepts,

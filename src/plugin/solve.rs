@@ -403,11 +403,9 @@ pub(crate) fn solve_lane(
                 match colliders.get(body.entity) {
                     Ok(collider) => {
                         if body.flags & HAS_MASS == 0 {
-                            let props = collider.mass_properties(1.0);
-                            body.mass = props.mass;
-                            body.inertia = props.inertia;
+                            (body.mass, body.inertia) = collider.scaled_unit_mass(body.scale);
                         }
-                        shapes[n] = (*collider.proxy(), collider.core_radius());
+                        shapes[n] = collider.scaled(body.scale);
                         batch[n] = next;
                         n += 1;
                     }
@@ -463,6 +461,7 @@ pub(crate) fn solve_lane(
             || body.error.is_some()
             || body.flags & (OVERLAPPING | NUDGED) != 0
             || body.flags & WAS_CLEAR == 0
+            || body.swept < 1.0
         {
             visit.push(index as u32);
         }

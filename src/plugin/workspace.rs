@@ -45,8 +45,14 @@ pub(crate) struct BodyEntry {
     /// Why the body was not swept, or the time of impact that failed.
     pub(crate) error: Option<CcdError>,
     /// The shape's reach about its centre of mass ([`StepPoses`](super::StepPoses)' copy of the
-    /// collider's).
+    /// collider's, times `scale`).
     pub(crate) reach: f32,
+    /// The body's uniform world scale, which scales its collider and mass (see
+    /// [`StepPoses`](super::StepPoses)' copy: 0 or NaN for a `Transform` that cannot be swept).
+    pub(crate) scale: f32,
+    /// The fraction of its user's motion the body is swept over: 1, or less for a step that
+    /// leaves the coordinate limit, swept only as far as the limit ([`fill`](super::gather::fill)).
+    pub(crate) swept: f32,
 }
 
 /// [`BodyEntry::flags`]: the body keeps a [`Velocity`](super::Velocity).

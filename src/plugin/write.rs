@@ -10,7 +10,7 @@ use super::hierarchy::Planar;
 use super::outcome::{CcdError, CcdImpact, CcdOutcome, Hits};
 use super::workspace::{BodyEntry, HAS_VELOCITY, Lane, NUDGED, OVERLAPPING};
 use super::{StaticCollider, StepPoses, Velocity};
-use crate::geometry::ImpactRecord;
+use crate::geometry::{ImpactRecord, ToiFailure};
 
 /// Puts a body in the error state, with a warning the first time this error shows (the
 /// settings' errors have their own, once for every body). An error repeated from the last step
@@ -19,7 +19,14 @@ fn set_error(toi: &mut Mut<CcdOutcome>, entity: Entity, error: CcdError) {
     let outcome = CcdOutcome::Error(error);
     if **toi != outcome {
         if toi.error() != Some(error) && error != CcdError::InvalidSettings {
-            log::warn!("bevy_ccd: body {entity} not swept this step: {error:?}; left where it is");
+            match error {
+                CcdError::Toi(_) => log::warn!(
+                    "bevy_ccd: body {entity}: {error:?}; stopped at the last pose known to be clear"
+                ),
+                _ => log::warn!(
+                    "bevy_ccd: body {entity} not swept this step: {error:?}; left where it is"
+                ),
+            }
         }
         **toi = outcome;
     }
@@ -76,13 +83,18 @@ pub(crate) fn write_lane(
         }
         // Without an impact or a failure the body ends where its user put it: that pose
         // is left exactly as it is (the solver's went through the centre of mass and
-        // back, and a rebuilt rotation would not have the user's bits).
-        let (position, angle) =
-            if body.impact_count == 0 && body.error.is_none() && body.flags & NUDGED == 0 {
-                (sweep.end_position, sweep.end_angle)
-            } else {
-                (body.position, body.angle)
-            };
+        // back, and a rebuilt rotation would not have the user's bits). A step that left the
+        // coordinate limit, swept only as far as the limit (`fill`), with nothing in the way,
+        // ends at the limit, an error.
+        let free = body.impact_count == 0 && body.error.is_none() && body.flags & NUDGED == 0;
+        let (position, angle, error) = if free && body.swept < 1.0 {
+            let beyond = Some(CcdError::Toi(ToiFailure::CoordinatesTooLarge));
+            (body.sweep.origin_at(1.0), body.sweep.a1, beyond)
+        } else if free {
+            (sweep.end_position, sweep.end_angle, None)
+        } else {
+            (body.position, body.angle, body.error)
+        };
         if position != sweep.end_position || angle != sweep.end_angle {
             let (local, local_angle) = match targets.frame(body.entity) {
                 Some(Ok(parent)) => {
@@ -97,7 +109,7 @@ pub(crate) fn write_lane(
             };
             transform.translation.x = local.x;
             transform.translation.y = local.y;
-            transform.rotation = Quat::from_rotation_z(local_angle);
+            transform.rotation = turned(transform.rotation, local_angle, angle - sweep.end_angle);
         }
         let sweep = sweep.bypass_change_detection();
         sweep.resolved_position = position;
@@ -115,8 +127,12 @@ pub(crate) fn write_lane(
             count: body.impact_count as u32,
             substeps: body.substeps as u32,
         });
-        let outcome = match (body.error, hits) {
-            (Some(error), _) => CcdOutcome::Error(error),
+        let outcome = match (error, hits) {
+            (Some(error), _) => {
+                // Stopped where the time of impact failed, or at the limit: a warning.
+                set_error(&mut toi, body.entity, error);
+                continue;
+            }
             (None, hits) if body.flags & OVERLAPPING != 0 => CcdOutcome::Overlapping(hits),
             (None, Some(hits)) => CcdOutcome::Hit(hits),
             (None, None) => CcdOutcome::Clear,
@@ -126,6 +142,21 @@ pub(crate) fn write_lane(
         if *toi != outcome {
             *toi = outcome;
         }
+    }
+}
+
+/// The rotation written back for a body the step turned to `local_angle` about z, `turn` away
+/// from where its user left it, `user`: only the rotation about z changes. An upright body
+/// (`user` about z alone, the common case) gets the plain rotation by `local_angle`; one with a
+/// part out of the plane (a sprite mirrored by a half turn about y, a slight tilt) gets `user`
+/// turned by `turn` about z, so that its part out of the plane stays: a mirror's z and w stay
+/// exactly 0.
+#[inline]
+fn turned(user: Quat, local_angle: f32, turn: f32) -> Quat {
+    if user.x == 0.0 && user.y == 0.0 {
+        Quat::from_rotation_z(local_angle)
+    } else {
+        Quat::from_rotation_z(turn) * user
     }
 }
 
@@ -152,7 +183,8 @@ impl WriteLookups<'_> {
             body_collider: compounds.collider(body, record.part),
             target: self.entities[record.target as usize],
             target_collider: self.colliders[record.target as usize],
-            fraction: record.fraction,
+            // Of the whole step, for a body swept only part of its way (`fill`).
+            fraction: record.fraction * body.swept,
             point: record.point,
             normal: record.normal,
             substep,
