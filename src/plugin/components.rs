@@ -289,14 +289,9 @@ fn poses_inserted(mut world: DeferredWorld, context: HookContext) {
                 let at = world.get_entity(e).ok()?;
                 Some((at.get::<Transform>(), at.get::<ChildOf>()))
             })
-            .map_or((Vec2::NAN, 0.0, 1.0), |(world, _)| {
-                (world.position, world.angle, world.scale)
-            }),
+            .map_or((Vec2::NAN, 0.0), |(world, _)| (world.position, world.angle)),
         ),
-        (own, _) => own.map(|own| {
-            let (position, angle) = planar_pose(own);
-            (position, angle, super::hierarchy::body_scale(own))
-        }),
+        (own, _) => own.map(planar_pose),
     };
     let enabled = entity.get::<CcdEnabled>().is_some_and(|e| e.0);
     let step = world
@@ -309,8 +304,7 @@ fn poses_inserted(mut world: DeferredWorld, context: HookContext) {
     if let Some(shape) = shape {
         shape.write(sweep);
     }
-    if let Some((position, angle, scale)) = pose {
-        sweep.scale = scale;
+    if let Some((position, angle)) = pose {
         sweep.start_position = position;
         sweep.start_angle = angle;
         sweep.end_position = position;
@@ -434,7 +428,7 @@ impl Default for CcdEnabled {
 /// let poses = world.get::<StepPoses>(body).unwrap();
 /// assert_eq!(poses.start(), poses.end());
 /// ```
-#[derive(Component, Reflect, Clone, Copy, Debug, PartialEq)]
+#[derive(Component, Reflect, Clone, Copy, Debug, Default, PartialEq)]
 #[component(on_insert = poses_inserted)]
 #[reflect(Component, Default, Debug, Clone)]
 pub struct StepPoses {
@@ -476,31 +470,6 @@ pub struct StepPoses {
     /// validated, but the mass of a huge one can overflow). Kept by the hooks.
     #[reflect(ignore)]
     pub(crate) mass_ok: bool,
-    /// The body's uniform world scale at the end of the step, which scales its collider and
-    /// mass; 0 when its `Transform` is not a planar similarity, NaN when it is not finite
-    /// ([`body_scale`](super::hierarchy::body_scale)).
-    pub(crate) scale: f32,
-}
-
-impl Default for StepPoses {
-    fn default() -> Self {
-        Self {
-            start_position: Vec2::ZERO,
-            start_angle: 0.0,
-            end_position: Vec2::ZERO,
-            end_angle: 0.0,
-            resolved_position: Vec2::ZERO,
-            resolved_angle: 0.0,
-            local_center: Vec2::ZERO,
-            recorded: false,
-            recorded_in: 0,
-            warned_no_collider: false,
-            resolved_valid: false,
-            reach: 0.0,
-            mass_ok: false,
-            scale: 1.0,
-        }
-    }
 }
 
 impl StepPoses {
@@ -526,19 +495,13 @@ impl StepPoses {
         self.recorded
     }
 
-    /// Centre of mass in the body frame (m), the [`Collider`]'s times the body's scale.
+    /// Centre of mass in the body frame (m), the [`Collider`]'s (unscaled).
     pub fn local_center(&self) -> Vec2 {
-        self.local_center * self.scale
+        self.local_center
     }
 
-    /// The body's uniform world scale in the last step (its `Transform`'s, times its
-    /// parents'), which scales its collider and mass; 0 when its `Transform` did not keep the
-    /// plane, NaN when it was not finite (the body then had an error).
-    pub fn scale(&self) -> f32 {
-        self.scale
-    }
-
-    /// The geometry-layer sweep from the start to the user's end pose.
+    /// The geometry-layer sweep from the start to the user's end pose (of the unscaled
+    /// collider's centre of mass).
     pub fn motion(&self) -> geometry::Sweep {
         geometry::Sweep::from_origins(
             self.local_center(),

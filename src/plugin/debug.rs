@@ -10,8 +10,10 @@ use bevy_gizmos::AppGizmoBuilder;
 use bevy_gizmos::config::GizmoConfigGroup;
 use bevy_gizmos::prelude::Gizmos;
 use bevy_reflect::prelude::*;
+use bevy_transform::components::Transform;
 use glam::Vec2;
 
+use super::hierarchy::body_scale;
 use super::workspace::CcdWorkspace;
 use super::{CcdImpact, CcdSensorCrossing, Collider, StepPoses};
 use crate::geometry::{Pose, ShapeProxy};
@@ -109,7 +111,7 @@ impl CcdGizmos {
 fn draw_ccd(
     mut gizmos: Gizmos<CcdGizmos>,
     workspace: Res<CcdWorkspace>,
-    bodies: Query<(&Collider, &StepPoses)>,
+    bodies: Query<(&Collider, &StepPoses, &Transform)>,
     poses: Query<&StepPoses>,
     mut impacts: MessageReader<CcdImpact>,
     mut crossings: MessageReader<CcdSensorCrossing>,
@@ -143,7 +145,7 @@ fn draw_ccd(
         }
         None => crossings.clear(),
     }
-    for (collider, poses) in &bodies {
+    for (collider, poses, transform) in &bodies {
         if !poses.recorded() {
             continue;
         }
@@ -153,11 +155,12 @@ fn draw_ccd(
             && end.is_finite()
             && start_angle.is_finite()
             && end_angle.is_finite()
-            && poses.scale() > 0.0)
+            && body_scale(transform) > 0.0)
         {
             continue;
         }
-        let (proxy, _) = collider.scaled(poses.scale());
+        // The body's own scale (a child's parents' is not composed here).
+        let (proxy, _) = collider.scaled(body_scale(transform));
         if let Some(colour) = colours.sweeps {
             outline(&mut gizmos, &proxy, Pose::new(start, start_angle), colour);
             gizmos.line_2d(start, end, colour);

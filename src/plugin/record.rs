@@ -12,7 +12,7 @@ use glam::Vec2;
 use smallvec::SmallVec;
 
 use super::components::pose_of;
-use super::hierarchy::{Ancestry, TickedAncestry, body_pose, body_scale, chain_moved_since};
+use super::hierarchy::{Ancestry, TickedAncestry, body_pose, chain_moved_since};
 use super::parallel::{MAX_ITEMS, hand_out, pool, workers};
 use super::workspace::CcdWorkspace;
 use super::{CcdConfig, CcdEnabled, StaticCollider, StepPoses, Velocity};
@@ -210,7 +210,6 @@ pub(crate) fn record_end(
     let dt = step_length(&config, time.as_deref());
     let record = |transform: &Transform, sweep: &mut StepPoses, velocity: Option<&Velocity>| {
         record_end_pose(|| pose_of(transform), sweep, velocity, dt);
-        sweep.scale = body_scale(transform);
     };
     let frames = &mut workspace.child_frames;
     for (entity, transform, mut sweep, velocity, parent) in &mut children {
@@ -223,7 +222,6 @@ pub(crate) fn record_end(
             .ok()
             .map(|(world, _)| (world.position, wrap_angle(world.angle)));
         record_end_pose(|| world, sweep, velocity, dt);
-        sweep.scale = pose.map_or(1.0, |(world, _)| world.scale);
         frames.push((entity, pose.map(|(_, frame)| frame)));
     }
     // By entity, for the write-back's lookups; an error of the start pass (pushed first, and

@@ -10,7 +10,7 @@ use super::hierarchy::Planar;
 use super::outcome::{CcdError, CcdImpact, CcdOutcome, Hits};
 use super::workspace::{BodyEntry, HAS_VELOCITY, Lane, NUDGED, OVERLAPPING};
 use super::{StaticCollider, StepPoses, Velocity};
-use crate::geometry::{ImpactRecord, ToiFailure};
+use crate::geometry::ImpactRecord;
 
 /// Puts a body in the error state, with a warning the first time this error shows (the
 /// settings' errors have their own, once for every body). An error repeated from the last step
@@ -83,18 +83,13 @@ pub(crate) fn write_lane(
         }
         // Without an impact or a failure the body ends where its user put it: that pose
         // is left exactly as it is (the solver's went through the centre of mass and
-        // back, and a rebuilt rotation would not have the user's bits). A step that left the
-        // coordinate limit, swept only as far as the limit (`fill`), with nothing in the way,
-        // ends at the limit, an error.
-        let free = body.impact_count == 0 && body.error.is_none() && body.flags & NUDGED == 0;
-        let (position, angle, error) = if free && body.swept < 1.0 {
-            let beyond = Some(CcdError::Toi(ToiFailure::CoordinatesTooLarge));
-            (body.sweep.origin_at(1.0), body.sweep.a1, beyond)
-        } else if free {
-            (sweep.end_position, sweep.end_angle, None)
-        } else {
-            (body.position, body.angle, body.error)
-        };
+        // back, and a rebuilt rotation would not have the user's bits).
+        let (position, angle) =
+            if body.impact_count == 0 && body.error.is_none() && body.flags & NUDGED == 0 {
+                (sweep.end_position, sweep.end_angle)
+            } else {
+                (body.position, body.angle)
+            };
         if position != sweep.end_position || angle != sweep.end_angle {
             let (local, local_angle) = match targets.frame(body.entity) {
                 Some(Ok(parent)) => {
@@ -127,7 +122,7 @@ pub(crate) fn write_lane(
             count: body.impact_count as u32,
             substeps: body.substeps as u32,
         });
-        let outcome = match (error, hits) {
+        let outcome = match (body.error, hits) {
             (Some(error), _) => {
                 // Stopped where the time of impact failed, or at the limit: a warning.
                 set_error(&mut toi, body.entity, error);
@@ -183,8 +178,7 @@ impl WriteLookups<'_> {
             body_collider: compounds.collider(body, record.part),
             target: self.entities[record.target as usize],
             target_collider: self.colliders[record.target as usize],
-            // Of the whole step, for a body swept only part of its way (`fill`).
-            fraction: record.fraction * body.swept,
+            fraction: record.fraction,
             point: record.point,
             normal: record.normal,
             substep,
