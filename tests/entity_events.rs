@@ -1,12 +1,13 @@
 //! Entity events: observers on a body and on its target get a `CcdHit` for every impact, with
 //! the message's data, in the messages' order; sensor crossings likewise as `CcdSensorEntered`
 //! and `CcdSensorExited`; entities without `CcdEvents` get none; the poses observers read are
-//! the ones the step wrote.
+//! the ones the step wrote; entities marked before the plugin was added count too.
 
 mod support;
 
-use bevy_app::{App, FixedPostUpdate};
+use bevy_app::{App, FixedPostUpdate, FixedUpdate};
 use bevy_ccd::prelude::*;
+use bevy_ccd::testing::StepFixed;
 use bevy_ecs::prelude::*;
 use bevy_transform::prelude::Transform;
 use support::app::*;
@@ -199,4 +200,48 @@ fn only_marked_entities_get_events() {
         step(&mut app);
     }
     assert!(app.world().resource::<Seen>().0.is_empty());
+}
+
+/// Entities given `CcdEvents` (and their observers) before the plugin is added get their
+/// events as those spawned after it do: a ball driven into a wall, the ball and the wall
+/// marked, both spawned into a bare app.
+#[test]
+fn entities_marked_before_the_plugin_is_added_get_events() {
+    #[derive(Resource, Default)]
+    struct Hits(Vec<(Entity, bool)>);
+    let mut app = App::new();
+    app.init_resource::<Hits>();
+    let on_hit = |hit: On<CcdHit>, mut hits: ResMut<Hits>| hits.0.push((hit.entity, hit.on_body));
+    let wall = app
+        .world_mut()
+        .spawn((
+            Collider::rectangle(0.005, 2.0).unwrap(),
+            StaticCollider,
+            CcdEvents,
+            Transform::from_xyz(1.0, 0.0, 0.0),
+        ))
+        .observe(on_hit)
+        .id();
+    let ball = app
+        .world_mut()
+        .spawn((
+            Collider::circle(0.1).unwrap(),
+            CcdEnabled::default(),
+            CcdEvents,
+            Velocity {
+                linear: Vec2::new(120.0, 0.0),
+                angular: 0.0,
+            },
+            Transform::default(),
+        ))
+        .observe(on_hit)
+        .id();
+    bevy_ccd::testing::make_headless(&mut app, DT, CcdPlugin::default());
+    app.add_systems(FixedUpdate, bevy_ccd::testing::integrate_velocity);
+    for _ in 0..3 {
+        app.step_fixed(1);
+    }
+    let hits = &app.world().resource::<Hits>().0;
+    assert!(hits.contains(&(ball, true)), "{hits:?}");
+    assert!(hits.contains(&(wall, false)), "{hits:?}");
 }

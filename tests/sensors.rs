@@ -2,7 +2,8 @@
 //! the geometry predicts, at 2,000 m/s through 1 cm and at 5 m/s over several steps; nothing for
 //! a body resting inside, or on a layer the body ignores; crossings along a sub-stepped body's
 //! bent path; poses identical to the bit with and without sensors; the same crossings on one
-//! thread or many; and a `Sensor` on a body is ignored.
+//! thread or many; a `Sensor` on a body is ignored; a sensor removed during a step reports
+//! nothing in it.
 
 mod support;
 
@@ -418,6 +419,76 @@ fn a_compound_body_crosses_as_one() {
             let tolerance = 0.25 * SLOP + 1e-3;
             assert!((at(log[0]) - 1.495).abs() < tolerance, "{what}");
             assert!((at(log[1]) - 2.505).abs() < tolerance, "{what}");
+        }
+    }
+}
+
+/// The sensors to remove during a step, by a system of the step's own schedule.
+#[derive(Resource, Default)]
+struct RemoveDuringStep(Vec<(Entity, RemoveHow)>);
+
+#[derive(Clone, Copy, Debug)]
+enum RemoveHow {
+    Despawn,
+    Marker,
+    Collider,
+}
+
+/// Between the upkeep of the statics and the solve: the hierarchy of this step still holds
+/// the sensors removed here.
+fn remove_sensors(world: &mut World) {
+    let list = core::mem::take(&mut world.resource_mut::<RemoveDuringStep>().0);
+    for (sensor, how) in list {
+        let mut at = world.entity_mut(sensor);
+        match how {
+            RemoveHow::Despawn => at.despawn(),
+            RemoveHow::Marker => {
+                at.remove::<Sensor>();
+            }
+            RemoveHow::Collider => {
+                at.remove::<Collider>();
+            }
+        }
+    }
+}
+
+/// A 2,000 m/s bullet crossing a trigger in the step the trigger is despawned (or loses its
+/// `Sensor` or its `Collider`) after the step's statics were updated: no crossing, in that step
+/// or later, as a removed solid target is never hit by a step under way. The same flight with
+/// the trigger kept reports both crossings.
+#[test]
+fn a_sensor_removed_during_a_step_reports_nothing_in_it() {
+    for mode in MODES {
+        for how in [RemoveHow::Despawn, RemoveHow::Marker, RemoveHow::Collider] {
+            for remove in [false, true] {
+                let mut app = sensing_app(mode);
+                app.init_resource::<RemoveDuringStep>().add_systems(
+                    CcdSchedule,
+                    remove_sensors
+                        .after(CcdStepSystems::UpdateStatics)
+                        .before(CcdStepSystems::Solve),
+                );
+                let sensor = spawn_sensor(&mut app, Vec2::new(0.005, 1.0), Vec2::new(10.0, 0.0));
+                spawn_ball(&mut app, 0.01, Vec2::ZERO, Vec2::new(2000.0, 0.0), ());
+                // The bullet crosses x = 10 in the first step.
+                if remove {
+                    app.world_mut()
+                        .resource_mut::<RemoveDuringStep>()
+                        .0
+                        .push((sensor, how));
+                }
+                for _ in 0..3 {
+                    step(&mut app);
+                }
+                let log = crossings(&app);
+                let what = format!("{mode:?}, {how:?}, removed {remove}");
+                if remove {
+                    assert!(log.is_empty(), "{what}: {log:?}");
+                } else {
+                    assert_eq!(log.len(), 2, "{what}: {log:?}");
+                    assert!(log.iter().all(|(s, _)| *s == 1), "{what}: {log:?}");
+                }
+            }
         }
     }
 }

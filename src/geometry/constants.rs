@@ -58,9 +58,9 @@ pub const SLOP_PER_COORDINATE_SPACING: f32 = 64.0;
 /// The largest magnitude of any world coordinate the plugin accepts for a given slop (in the
 /// slop's length unit, metres by default): the largest power of two below which the `f32`
 /// spacing is at most `slop / SLOP_PER_COORDINATE_SPACING`, and never more than
-/// [`MAX_WORLD_COORDINATE`] (the time of impact's own bound). A body reaching beyond it, at
-/// the start or the end of a step, is refused with `CcdError::CoordinatesTooLarge`; a static
-/// reaching beyond it is ignored.
+/// [`MAX_WORLD_COORDINATE`] (the time of impact's own bound). A body reaching beyond it at
+/// the start of a step is refused with `CcdError::CoordinatesTooLarge`; a step that ends
+/// beyond it is swept only as far as it; a static reaching beyond it is ignored.
 ///
 /// Derivation: an `f32` with `|x|` in `[2^e, 2^(e+1))` has 23 fraction bits, so neighbouring
 /// values there are `2^(e-23)` apart. The spacing is at most `s = slop / 64` for every

@@ -35,6 +35,9 @@ use bevy_transform::components::Transform;
 /// assert_eq!(world.get::<Collider>(ball), Some(&Collider::circle(0.2).unwrap()));
 /// ```
 ///
+/// A body's or a static's uniform world scale scales its collider (a body's mass by its
+/// square, its inertia by its fourth power).
+///
 /// A collider is *immutable*: to reshape one, insert a new `Collider` on the entity. The plugin
 /// learns of every insertion and removal from the component's hooks, so it rebuilds its static
 /// hierarchy only when a static's shape really changed, without scanning every static each step
@@ -147,6 +150,31 @@ impl Collider {
             mass: self.unit_mass.mass * density,
             center: self.unit_mass.center,
             inertia: self.unit_mass.inertia * density,
+        }
+    }
+
+    /// The proxy and core radius of this collider on a body of uniform world `scale`: itself
+    /// at 1, its points and radii times `scale` otherwise.
+    #[inline]
+    pub(crate) fn scaled(&self, scale: f32) -> (ShapeProxy, f32) {
+        if scale == 1.0 {
+            (self.proxy, self.core_radius)
+        } else {
+            (self.proxy.scaled(scale), self.core_radius * scale)
+        }
+    }
+
+    /// [`Self::mass_properties`] at unit density on a body of uniform world `scale`: the mass
+    /// times `scale²` (an area), the inertia times `scale⁴` (an area times a length squared);
+    /// the centre is left in the unscaled entity frame.
+    #[inline]
+    pub(crate) fn scaled_unit_mass(&self, scale: f32) -> (f32, f32) {
+        let props = self.mass_properties(1.0);
+        if scale == 1.0 {
+            (props.mass, props.inertia)
+        } else {
+            let area = scale * scale;
+            (props.mass * area, props.inertia * area * area)
         }
     }
 }
@@ -509,15 +537,16 @@ impl StepPoses {
         self.recorded
     }
 
-    /// Centre of mass in the body frame (m), the [`Collider`]'s.
+    /// Centre of mass in the body frame (m), the [`Collider`]'s (unscaled).
     pub fn local_center(&self) -> Vec2 {
         self.local_center
     }
 
-    /// The geometry-layer sweep from the start to the user's end pose.
+    /// The geometry-layer sweep from the start to the user's end pose (of the unscaled
+    /// collider's centre of mass).
     pub fn motion(&self) -> geometry::Sweep {
         geometry::Sweep::from_origins(
-            self.local_center,
+            self.local_center(),
             self.start_position,
             self.start_angle,
             self.end_position,

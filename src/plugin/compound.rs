@@ -68,8 +68,8 @@ impl Compounds {
     }
 
     /// The mass properties at unit density of the swept body `entry`, about its centre of
-    /// mass; unless it is compound, also its one part, its own [`Collider`] (read in place),
-    /// into `own`.
+    /// mass; unless it is compound, also its one part, its own [`Collider`] at the body's
+    /// world scale, into `own`.
     #[inline]
     pub(crate) fn read(
         &self,
@@ -84,10 +84,11 @@ impl Compounds {
         let collider = colliders
             .get(entry.entity)
             .map_err(|_| CcdError::InvalidBodyData)?;
-        let mass = collider.mass_properties(1.0);
-        own.proxy = *collider.proxy();
-        own.core_center = mass.center;
-        own.core_radius = collider.core_radius();
+        // Scaled by the body's uniform world scale (1 leaves every bit as it is).
+        let mut mass = collider.mass_properties(1.0);
+        (mass.mass, mass.inertia) = collider.scaled_unit_mass(entry.scale);
+        (own.proxy, own.core_radius) = collider.scaled(entry.scale);
+        own.core_center = mass.center * entry.scale;
         Ok(mass)
     }
 
@@ -325,7 +326,10 @@ pub(crate) fn body_colliders(
             .iter()
             .map(|(body, collider, transform)| {
                 let layers = layers_of(body).unwrap_or_default();
-                (body, body, pose(transform), *collider.proxy(), layers)
+                // Scaled as the plugin sweeps it (a `Transform` it refuses, as it is).
+                let scale = super::hierarchy::body_scale(transform);
+                let (proxy, _) = collider.scaled(if scale > 0.0 { scale } else { 1.0 });
+                (body, body, pose(transform), proxy, layers)
             })
             .collect();
         for (part, collider) in &parts {

@@ -10,8 +10,10 @@ use bevy_gizmos::AppGizmoBuilder;
 use bevy_gizmos::config::GizmoConfigGroup;
 use bevy_gizmos::prelude::Gizmos;
 use bevy_reflect::prelude::*;
+use bevy_transform::components::Transform;
 use glam::Vec2;
 
+use super::hierarchy::body_scale;
 use super::workspace::CcdWorkspace;
 use super::{CcdImpact, CcdSensorCrossing, Collider, StepPoses};
 use crate::geometry::{Pose, ShapeProxy};
@@ -109,7 +111,7 @@ impl CcdGizmos {
 fn draw_ccd(
     mut gizmos: Gizmos<CcdGizmos>,
     workspace: Res<CcdWorkspace>,
-    bodies: Query<(&Collider, &StepPoses)>,
+    bodies: Query<(&Collider, &StepPoses, &Transform)>,
     poses: Query<&StepPoses>,
     mut impacts: MessageReader<CcdImpact>,
     mut crossings: MessageReader<CcdSensorCrossing>,
@@ -143,7 +145,7 @@ fn draw_ccd(
         }
         None => crossings.clear(),
     }
-    for (collider, poses) in &bodies {
+    for (collider, poses, transform) in &bodies {
         if !poses.recorded() {
             continue;
         }
@@ -152,26 +154,19 @@ fn draw_ccd(
         if !(start.is_finite()
             && end.is_finite()
             && start_angle.is_finite()
-            && end_angle.is_finite())
+            && end_angle.is_finite()
+            && body_scale(transform) > 0.0)
         {
             continue;
         }
+        // The body's own scale (a child's parents' is not composed here).
+        let (proxy, _) = collider.scaled(body_scale(transform));
         if let Some(colour) = colours.sweeps {
-            outline(
-                &mut gizmos,
-                collider.proxy(),
-                Pose::new(start, start_angle),
-                colour,
-            );
+            outline(&mut gizmos, &proxy, Pose::new(start, start_angle), colour);
             gizmos.line_2d(start, end, colour);
         }
         if let Some(colour) = colours.bodies {
-            outline(
-                &mut gizmos,
-                collider.proxy(),
-                Pose::new(end, end_angle),
-                colour,
-            );
+            outline(&mut gizmos, &proxy, Pose::new(end, end_angle), colour);
         }
     }
     let Some(colour) = colours.impacts else {

@@ -1,9 +1,7 @@
 //! Entity events for observers: [`CcdHit`], [`CcdSensorEntered`] and [`CcdSensorExited`],
 //! triggered on the bodies and targets that opt in with [`CcdEvents`].
 
-use bevy_ecs::lifecycle::HookContext;
 use bevy_ecs::prelude::*;
-use bevy_ecs::world::DeferredWorld;
 use bevy_reflect::prelude::*;
 
 use super::CcdImpact;
@@ -38,28 +36,8 @@ use super::sensors::CcdSensorCrossing;
 ///     .observe(|hit: On<CcdHit>| println!("hit {:?} at {}", hit.impact.target, hit.impact.fraction));
 /// ```
 #[derive(Component, Reflect, Clone, Copy, Debug, Default, PartialEq, Eq)]
-#[component(on_add = listener_added, on_remove = listener_removed)]
 #[reflect(Component, Default, Debug, Clone)]
 pub struct CcdEvents;
-
-/// How many entities carry [`CcdEvents`], kept by its hooks: with none, the step triggers no
-/// event and looks at no entity for the marker.
-#[derive(Resource, Default)]
-pub(crate) struct Listeners(u32);
-
-/// Hook of [`CcdEvents`] (addition).
-fn listener_added(mut world: DeferredWorld, _: HookContext) {
-    if let Some(mut listeners) = world.get_resource_mut::<Listeners>() {
-        listeners.0 += 1;
-    }
-}
-
-/// Hook of [`CcdEvents`] (removal, despawns included).
-fn listener_removed(mut world: DeferredWorld, _: HookContext) {
-    if let Some(mut listeners) = world.get_resource_mut::<Listeners>() {
-        listeners.0 = listeners.0.saturating_sub(1);
-    }
-}
 
 /// An impact, as an entity event on the body and on the target that carry [`CcdEvents`].
 #[derive(EntityEvent, Reflect, Clone, Copy, Debug, PartialEq)]
@@ -105,14 +83,15 @@ pub struct CcdSensorExited {
 /// [`CcdStepSystems::Impacts`](super::CcdStepSystems::Impacts), after the messages: triggers
 /// the entity events of this step's messages on the entities with [`CcdEvents`]. Reads the
 /// messages it follows, so the order is theirs; with no marker in the world it only skips them.
+/// Whether there is one is asked of the query (the tables that hold the marker), not counted
+/// by hooks: an entity given the marker before the plugin was added counts too.
 pub(crate) fn trigger_events(
-    listeners: Res<Listeners>,
     mut impacts: MessageReader<CcdImpact>,
     mut crossings: MessageReader<CcdSensorCrossing>,
     marked: Query<(), With<CcdEvents>>,
     mut commands: Commands,
 ) {
-    if listeners.0 == 0 {
+    if marked.is_empty() {
         impacts.clear();
         crossings.clear();
         return;

@@ -3,13 +3,15 @@
 //! the query of the static hierarchy with each swept bound ([`Gather::lane`]).
 
 use bevy_ecs::prelude::*;
+use bevy_transform::components::Transform;
 use glam::Vec2;
 
 use super::compound::Compounds;
+use super::hierarchy::{Planar, body_scale};
 use super::outcome::{CcdError, CcdOutcome};
 use super::workspace::{
-    BodyEntry, COLLIDER_MASS_OK, COMPOUND, HAS_LAYERS, HAS_MASS, HAS_VELOCITY, Lane, WAS_CLEAR,
-    Warned,
+    BEYOND_LIMIT, BodyEntry, COLLIDER_MASS_OK, COMPOUND, HAS_LAYERS, HAS_MASS, HAS_VELOCITY, Lane,
+    WAS_CLEAR, Warned,
 };
 use super::{
     BodyMass, Collider, CollisionLayers, Friction, Restitution, StaticCollider, StepPoses,
@@ -25,12 +27,13 @@ use crate::geometry::{self, Aabb, QUERY_GROUP, StaticSet};
 pub(crate) const GROUP_MIN_BODIES: usize = 4096;
 
 impl BodyEntry {
-    /// An entry with the recorded poses of `poses`, nothing else filled in yet.
-    pub(crate) fn new(entity: Entity, poses: &StepPoses) -> Self {
+    /// An entry with the recorded poses of `poses`, nothing else filled in yet; the collider's
+    /// centre of mass and reach scaled by the body's world `scale` (see [`BodyEntry::scale`]).
+    pub(crate) fn new(entity: Entity, poses: &StepPoses, scale: f32) -> Self {
         Self {
             entity,
             sweep: geometry::Sweep {
-                local_center: poses.local_center,
+                local_center: poses.local_center * scale,
                 c0: poses.start_position,
                 c1: poses.end_position,
                 a0: poses.start_angle,
@@ -51,7 +54,8 @@ impl BodyEntry {
             angle: 0.0,
             flags: if poses.mass_ok { COLLIDER_MASS_OK } else { 0 },
             error: None,
-            reach: poses.reach,
+            reach: poses.reach * scale,
+            scale,
         }
     }
 }
@@ -70,6 +74,7 @@ pub(crate) type ListQuery<'w, 's> = Query<
         Option<&'static Friction>,
         Option<&'static BodyMass>,
         Option<&'static CollisionLayers>,
+        &'static Transform,
     ),
     Without<StaticCollider>,
 >;
@@ -80,6 +85,11 @@ pub(crate) struct Listing<'c> {
     pub(crate) step: u32,
     pub(crate) compounds: &'c Compounds,
     pub(crate) clamped: u8,
+    /// This step's child bodies' parent poses ([`CcdWorkspace::child_frames`]): their world
+    /// scale is their parent's times their own.
+    ///
+    /// [`CcdWorkspace::child_frames`]: super::workspace::CcdWorkspace::child_frames
+    pub(crate) child_frames: &'c [(Entity, Result<Planar, CcdError>)],
 }
 
 /// The listing of the solve: a serial pass in query order (deterministic for a given
@@ -99,8 +109,18 @@ pub(crate) fn list_bodies<'a>(
 ) -> usize {
     let mut rest = slots;
     let (mut listed, mut in_lane) = (0, 0);
-    for (entity, mut sweep, mut toi, has_collider, velocity, restitution, friction, mass, layers) in
-        bodies
+    for (
+        entity,
+        mut sweep,
+        mut toi,
+        has_collider,
+        velocity,
+        restitution,
+        friction,
+        mass,
+        layers,
+        transform,
+    ) in bodies
     {
         let swept = sweep.recorded && sweep.recorded_in == listing.step;
         // Checked once per step: with no compound body, no body looks itself up.
@@ -123,7 +143,18 @@ pub(crate) fn list_bodies<'a>(
             }
             continue;
         }
-        let mut entry = BodyEntry::new(entity, &sweep);
+        // The world scale: the body's own, times its parent's for a child body (a chain with
+        // no world pose has its error from the record passes, whatever this is).
+        let mut scale = body_scale(transform);
+        if !listing.child_frames.is_empty()
+            && let Ok(at) = listing
+                .child_frames
+                .binary_search_by_key(&entity, |(e, _)| *e)
+            && let Ok(frame) = listing.child_frames[at].1
+        {
+            scale *= frame.scale;
+        }
+        let mut entry = BodyEntry::new(entity, &sweep, scale);
         if *toi == CcdOutcome::Clear {
             entry.flags |= WAS_CLEAR;
         }
@@ -179,25 +210,39 @@ pub(crate) fn list_bodies<'a>(
 /// mass is taken from the collider in the solve, when a [`BodyMass`] gave none and the body
 /// has targets in reach.
 ///
-/// `limit` is [`geometry::max_world_coordinate`] of the slop: a body any point of which is
-/// further from the origin along an axis, at the start or the end of the step, is
-/// [`CcdError::CoordinatesTooLarge`].
+/// `limit` is [`geometry::max_world_coordinate`] of the slop. A body is within it when its
+/// centre of mass plus its reach (the farthest any point of its collider can be from the
+/// centre of mass, whatever the angle) is within it on both axes: one that is not at the
+/// start of the step is [`CcdError::CoordinatesTooLarge`]. A step that starts within it and
+/// ends beyond it is swept only as far as the limit ([`up_to_limit`]), with the error
+/// [`BEYOND_LIMIT`] and its pose at the limit: a target on the way stops the body as on any step
+/// (and clears the error); with none, it ends at the limit. The fractions of its impacts are
+/// of the stretch swept.
 pub(crate) fn fill(body: &mut BodyEntry, limit: f32) -> Result<(), CcdError> {
     let raw = body.sweep;
-    let motion = geometry::Sweep::from_origins(raw.local_center, raw.c0, raw.a0, raw.c1, raw.a1);
-    if !motion.is_finite() {
+    let mut motion =
+        geometry::Sweep::from_origins(raw.local_center, raw.c0, raw.a0, raw.c1, raw.a1);
+    if !motion.is_finite() || body.scale.is_nan() {
         return Err(CcdError::NonFiniteTransform);
+    }
+    // A compound body's parts are placed and scaled once, when they change, not every step
+    // with the body's scale: such a body must keep the scale 1.
+    if body.scale == 0.0 || (body.flags & COMPOUND != 0 && body.scale != 1.0) {
+        return Err(CcdError::UnsupportedTransform);
     }
     // The centre of mass plus the reach about it bounds every point of the shape. A NaN reach
     // passes here and is caught below.
-    let big = motion
-        .c0
-        .abs()
-        .max_element()
-        .max(motion.c1.abs().max_element())
-        + body.reach;
-    if big > limit {
+    if motion.c0.abs().max_element() + body.reach > limit {
         return Err(CcdError::CoordinatesTooLarge);
+    }
+    if motion.c1.abs().max_element() + body.reach > limit {
+        // Short of the limit by a few roundings of a coordinate there, so that the next step,
+        // which starts from the body's origin at the end of this one, starts within it.
+        let margin = 8.0 * f32::EPSILON * limit;
+        motion = up_to_limit(motion, limit - body.reach - margin);
+        body.error = Some(BEYOND_LIMIT);
+        body.position = motion.origin_at(1.0);
+        body.angle = motion.a1;
     }
     let mass_ok = if body.flags & HAS_MASS != 0 {
         usable_mass(body.mass, body.inertia)
@@ -216,6 +261,43 @@ pub(crate) fn fill(body: &mut BodyEntry, limit: f32) -> Result<(), CcdError> {
     }
     body.sweep = motion;
     Ok(())
+}
+
+/// Gives `body` the candidates `lane.candidates[start..start + count]`; more than `u16::MAX`
+/// (a swept bound across a huge level) is [`CcdError::CoordinatesTooLarge`].
+fn set_candidates(body: &mut BodyEntry, start: usize, count: usize) {
+    body.candidates = start as u32;
+    match u16::try_from(count) {
+        Ok(count) => body.candidate_count = count,
+        Err(_) => {
+            body.candidate_count = 0;
+            body.error = Some(CcdError::CoordinatesTooLarge);
+        }
+    }
+}
+
+/// The part of `motion` (a centre-of-mass sweep that starts within `bound` of the origin on
+/// both axes and ends beyond it) up to where its centre first comes `bound` from the origin on
+/// an axis. In `f64`: the end may be anywhere up to
+/// `f32::MAX`, and the fraction of a long step tiny.
+fn up_to_limit(motion: geometry::Sweep, bound: f32) -> geometry::Sweep {
+    let (c0, c1, b) = (motion.c0.as_dvec2(), motion.c1.as_dvec2(), f64::from(bound));
+    let d = c1 - c0;
+    // On an axis that ends beyond `±b` the centre crosses it (with the end's sign) at
+    // `(±b - start) / (end - start)`, in `[0, 1)` since `|start| <= b < |end|`.
+    let mut t = 1.0f64;
+    for (start, end, step) in [(c0.x, c1.x, d.x), (c0.y, c1.y, d.y)] {
+        if end.abs() > b {
+            t = t.min((b.copysign(end) - start) / step);
+        }
+    }
+    let t = t.clamp(0.0, 1.0);
+    // Rounded to `f32` within the bound, not past it.
+    let c = (c0 + t * d)
+        .as_vec2()
+        .clamp(Vec2::splat(-bound), Vec2::splat(bound));
+    let a = f64::from(motion.a0) + t * (f64::from(motion.a1) - f64::from(motion.a0));
+    geometry::Sweep::new(motion.local_center, motion.c0, motion.a0, c, a as f32)
 }
 
 /// What the broad phase of a lane reads: the static targets and the step's settings.
@@ -261,8 +343,7 @@ impl Gather<'_, '_, '_, '_> {
                 self.statics
                     .candidates_group(&boxes[..grouped], &mut lane.candidates, &mut counts);
                 for (&k, &count) in group[..grouped].iter().zip(&counts) {
-                    chunk[k].candidates = start as u32;
-                    chunk[k].candidate_count = count;
+                    set_candidates(&mut chunk[k], start, count as usize);
                     start += count as usize;
                 }
                 grouped = 0;
@@ -285,7 +366,11 @@ impl Gather<'_, '_, '_, '_> {
             let bounds = if body.sweep.a0 != body.sweep.a1 || body.flags & COMPOUND != 0 {
                 body.sweep.swept_disc_aabb(body.reach)
             } else if let Ok(collider) = self.colliders.get(body.entity) {
-                collider.proxy().swept_aabb(&body.sweep)
+                if body.scale == 1.0 {
+                    collider.proxy().swept_aabb(&body.sweep)
+                } else {
+                    collider.scaled(body.scale).0.swept_aabb(&body.sweep)
+                }
             } else {
                 body.error = Some(CcdError::InvalidBodyData);
                 continue;
@@ -294,8 +379,7 @@ impl Gather<'_, '_, '_, '_> {
                 let start = lane.candidates.len();
                 self.statics
                     .candidates_in(bounds, self.margin, &mut lane.candidates);
-                body.candidates = start as u32;
-                body.candidate_count = (lane.candidates.len() - start) as u32;
+                set_candidates(body, start, lane.candidates.len() - start);
                 continue;
             }
             group[grouped] = i;

@@ -4,7 +4,8 @@
 //!
 //! A `Transform` the plugin can read is a *planar similarity*: a translation in the plane, a
 //! rotation about z and a uniform scale. Its z translation and z scale are ignored (the
-//! world is the xy plane); anything else is [`CcdError::UnsupportedTransform`].
+//! world is the xy plane); anything else is [`CcdError::UnsupportedTransform`], but for a
+//! body's own rotation, which may also be a mirror ([`body_scale`]).
 
 use bevy_ecs::change_detection::Tick;
 use bevy_ecs::prelude::*;
@@ -143,29 +144,55 @@ pub(crate) fn pose_with<'a>(
 
 /// The world pose of a CCD body with the `Transform` `own` under `parent`, and its parent's
 /// world pose, which the write-back turns a resolved world pose back into a local one with.
-///
-/// A body's collider is never scaled: its own scale is ignored, as a root body's is, and its
-/// parent's world scale must be 1 (within [`SCALE_TOLERANCE`]), else
-/// [`CcdError::UnsupportedTransform`]: the solver keeps one shape per body, read from its
-/// collider in place, and a scaled copy of it per step would cost every body's solve.
+/// The world scale (the parent's times the body's own, [`body_scale`]) scales its collider.
 pub(crate) fn body_pose<'a>(
     own: &Transform,
     parent: Entity,
     link: impl Fn(Entity) -> Option<(Option<&'a Transform>, Option<&'a ChildOf>)>,
 ) -> Result<(Planar, Planar), CcdError> {
     let frame = pose_with(parent, None, link)?;
-    if (frame.scale - 1.0).abs() > SCALE_TOLERANCE {
-        return Err(CcdError::UnsupportedTransform);
-    }
     let Some((position, angle)) = super::components::pose_of(own) else {
         return Err(CcdError::NonFiniteTransform);
     };
+    let scale = body_scale(own);
+    if scale.is_nan() {
+        return Err(CcdError::NonFiniteTransform);
+    } else if scale == 0.0 {
+        return Err(CcdError::UnsupportedTransform);
+    }
     let local = Planar {
         position,
         angle,
-        scale: 1.0,
+        scale,
     };
     Ok((frame.compose(local), frame))
+}
+
+/// A body's own uniform scale, from the parts of its `Transform` its pose does not read: NaN
+/// when the translation's z or the scale is not finite; 0 when the `Transform` does not keep
+/// the plane (a scale not uniform in x and y or not positive, a rotation tilted out of the
+/// plane by more than [`MAX_TILT`] that is not a mirror either, a zero rotation); else the
+/// scale. A *mirror* is a half turn about an axis in the plane (a sprite flipped by a half
+/// turn about y): `|(q.z, q.w)|` within [`MAX_TILT`] of zero.
+///
+/// The plugin changes only the translation's x and y and the rotation about z of a body's
+/// `Transform`: the rest is the user's, kept bit for bit, but must still describe a body in
+/// the plane. A tilt other than a mirror would need the collider projected onto the plane.
+#[inline]
+pub(crate) fn body_scale(transform: &Transform) -> f32 {
+    let (q, s) = (transform.rotation, transform.scale);
+    if !(transform.translation.z.is_finite() && s.is_finite()) {
+        return f32::NAN;
+    }
+    let uniform = (s.x - s.y).abs() <= SCALE_TOLERANCE * s.x.abs().max(s.y.abs());
+    let length = q.length_squared();
+    let limit = MAX_TILT * MAX_TILT * length;
+    let in_plane = q.x * q.x + q.y * q.y <= limit || q.z * q.z + q.w * q.w <= limit;
+    if uniform && s.x >= f32::MIN_POSITIVE && in_plane && length >= f32::MIN_POSITIVE {
+        s.x
+    } else {
+        0.0
+    }
 }
 
 /// Whether the `Transform` or the `ChildOf` of `entity` changed (added, set or replaced) after

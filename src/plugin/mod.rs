@@ -206,7 +206,6 @@ impl Plugin for CcdPlugin {
             .init_resource::<CcdWorkspace>()
             .init_resource::<compound::Compounds>()
             .init_resource::<CcdDiagnostics>()
-            .init_resource::<events::Listeners>()
             .init_resource::<Time<Fixed>>()
             .add_message::<CcdImpact>()
             .add_message::<CcdSensorCrossing>()

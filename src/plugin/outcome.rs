@@ -63,10 +63,13 @@ pub struct Hits {
 #[reflect(opaque)]
 #[reflect(Debug, Clone, PartialEq)]
 pub enum CcdError {
-    /// The `Transform` (start or end) holds NaN or infinity.
+    /// The `Transform` (start or end) holds NaN or infinity, in any component (the
+    /// translation's z and the scale included).
     NonFiniteTransform,
-    /// Part of the body reaches beyond [`max_world_coordinate`] of the slop, at the start or
-    /// the end of the step.
+    /// The body reaches beyond [`max_world_coordinate`] of the slop at the start of the step:
+    /// its centre of mass plus its reach (the farthest any point of its collider can be from
+    /// the centre of mass, at any angle) is beyond it on an axis. A step that starts within
+    /// the limit and ends beyond it is swept as far as the limit instead (see [`Self::Toi`]).
     ///
     /// [`max_world_coordinate`]: crate::geometry::max_world_coordinate
     CoordinatesTooLarge,
@@ -79,14 +82,19 @@ pub enum CcdError {
     /// The `Velocity` or mass properties hold NaN, infinity or a non-positive mass.
     InvalidBodyData,
     /// The time of impact failed against a target, the body clamped at the last time known to
-    /// be clear; or the response at an impact failed, the body clamped at the impact.
+    /// be clear; or the response at an impact failed, the body clamped at the impact; or
+    /// (`ToiFailure::CoordinatesTooLarge`) the step left the coordinate limit with nothing in
+    /// the way, the body stopped at the limit. Its pose and velocity are written; a warning
+    /// when the error first shows.
     Toi(ToiFailure),
     /// The entity's place in the `ChildOf` hierarchy has no world pose: an ancestor has no
     /// `Transform`, or the chain of parents is a cycle or deeper than
     /// [`MAX_HIERARCHY_DEPTH`](super::hierarchy::MAX_HIERARCHY_DEPTH).
     InvalidHierarchy,
     /// A `Transform` on the way to the world is not a planar similarity: a scale that is not
-    /// uniform in x and y, not finite or not positive, or a rotation out of the plane.
+    /// uniform in x and y or not positive, or a rotation out of the plane (for a body's own
+    /// `Transform`, one other than a mirror: a half turn about an axis in the plane); or a
+    /// compound body's world scale is not 1.
     UnsupportedTransform,
     /// A [`MovingTarget`](super::MovingTarget) caught the body against another target (or
     /// another mover) and it could not get away within the step: it is left at its last pose

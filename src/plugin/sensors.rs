@@ -53,10 +53,12 @@ use crate::geometry::{self, Aabb, Pose, StaticItem, StaticSet};
 pub struct Sensor;
 
 /// Hook of [`Sensor`] (addition, removal): a static becomes a sensor or a solid target again,
-/// so both hierarchies are rebuilt before the next sweep.
-fn sensor_changed(mut world: DeferredWorld, _: HookContext) {
+/// so both hierarchies are rebuilt before the next sweep; a sensor that is one no more reports
+/// nothing from now on, also in a step under way.
+fn sensor_changed(mut world: DeferredWorld, context: HookContext) {
     if let Some(mut workspace) = world.get_resource_mut::<CcdWorkspace>() {
         workspace.statics_changed();
+        workspace.sensors.removed(context.entity);
     }
 }
 
@@ -108,6 +110,16 @@ impl SensorWorld {
     /// Whether the world has a sensor: with none, nothing of this module runs.
     pub(crate) fn any(&self) -> bool {
         !self.set.items().is_empty()
+    }
+
+    /// `entity` is a sensor no more (its [`Sensor`], [`StaticCollider`] or [`Collider`]
+    /// removed, or despawned): it reports nothing from now on, also in a step under way whose
+    /// hierarchy holds it, until the next rebuild drops it (as [`StaticSet::disable`] does for
+    /// a solid target).
+    pub(crate) fn removed(&mut self, entity: Entity) {
+        if let Ok(index) = self.entities.binary_search(&entity) {
+            self.set.disable(index);
+        }
     }
 }
 
@@ -324,9 +336,9 @@ pub(crate) fn sense_lane(
         let start = crossings.len();
         let layers = (shared.body_layers)(body);
         let accepts = |sensor: u32| layers.interacts(sensors.layers[sensor as usize]);
-        let proxy = collider.proxy();
+        let (proxy, _) = collider.scaled(body.scale);
         sense_path(
-            proxy,
+            &proxy,
             pieces,
             &sensors.set,
             accepts,
@@ -397,7 +409,11 @@ pub(crate) fn send_crossings(
         for &(index, start, count) in &lane.sensing.crossed {
             let body = ws.bodies[first + index as usize].entity;
             let list = &lane.sensing.crossings[start as usize..(start + count) as usize];
-            for c in list {
+            // A sensor removed after the solve reports nothing either.
+            for c in list
+                .iter()
+                .filter(|c| !sensors.set.is_disabled(c.sensor as usize))
+            {
                 out.write(CcdSensorCrossing {
                     body,
                     sensor: sensors.entities[c.sensor as usize],

@@ -18,8 +18,8 @@ use super::parallel::{MAX_ITEMS, hand_out, pool, workers};
 use super::record::step_length;
 use super::sensors::{SensorLane, SensorWorld, sense_lane};
 use super::workspace::{
-    BodyEntry, BodyLayers, COMPOUND, CcdWorkspace, HAS_LAYERS, HAS_MASS, HAS_VELOCITY, Lane,
-    LayersOf, NUDGED, OVERLAPPING, WAS_CLEAR, Warned,
+    BEYOND_LIMIT, BodyEntry, BodyLayers, COMPOUND, CcdWorkspace, HAS_LAYERS, HAS_MASS,
+    HAS_VELOCITY, Lane, LayersOf, NUDGED, OVERLAPPING, WAS_CLEAR, Warned,
 };
 use super::write::{WriteLookups, WriteQuery, write_lane};
 use super::{
@@ -94,11 +94,7 @@ pub(crate) fn solve<H: CcdHooks + 'static>(
     };
     let step_error = step_error(&config, dt, workspace);
     let compounds: &Compounds = &compounds;
-    let mut listing = Listing {
-        step: workspace.step,
-        compounds,
-        clamped: 0,
-    };
+    let step = workspace.step;
     let CcdWorkspace {
         statics,
         static_entities,
@@ -116,6 +112,12 @@ pub(crate) fn solve<H: CcdHooks + 'static>(
         colliders: static_colliders,
         child_frames,
     };
+    let mut listing = Listing {
+        step,
+        compounds,
+        clamped: 0,
+        child_frames: targets.child_frames,
+    };
     // Checked once a step: without sensors no path is recorded.
     let sensors = sensors.any().then_some(&*sensors);
     // Filled by index, not pushed, so that the lanes already listed can be handed out while
@@ -127,7 +129,7 @@ pub(crate) fn solve<H: CcdHooks + 'static>(
         entries.reserve_exact(most - entries.len());
         entries.resize(
             most,
-            BodyEntry::new(Entity::PLACEHOLDER, &StepPoses::default()),
+            BodyEntry::new(Entity::PLACEHOLDER, &StepPoses::default(), 1.0),
         );
     }
     let body_layers = BodyLayers {
@@ -182,17 +184,18 @@ pub(crate) fn solve<H: CcdHooks + 'static>(
         },
     );
     entries.truncate(listed);
+    let clamped = listing.clamped;
     if hook_panicked.load(Ordering::Relaxed) {
         workspace.warn_once(Warned::HOOK_PANIC, || {
             "a CcdHooks::accept_impact panicked: its impacts were kept".into()
         });
     }
-    if listing.clamped & Warned::RESTITUTION != 0 {
+    if clamped & Warned::RESTITUTION != 0 {
         workspace.warn_once(Warned::RESTITUTION, || {
             "a Restitution outside [0, 1] was clamped into it".into()
         });
     }
-    if listing.clamped & Warned::FRICTION != 0 {
+    if clamped & Warned::FRICTION != 0 {
         workspace.warn_once(Warned::FRICTION, || {
             "a negative Friction was taken as 0".into()
         });
@@ -280,10 +283,13 @@ fn store(body: &mut BodyEntry, outcome: BodyOutcome) {
     if outcome.nudged {
         body.flags |= NUDGED;
     }
+    // A body swept only as far as the coordinate limit keeps that error unless it was stopped.
+    let beyond = body.error.filter(|_| outcome.impacts == 0);
     body.error = outcome
         .failure
         .map(CcdError::Toi)
-        .or(outcome.squeezed.then_some(CcdError::Squeezed));
+        .or(outcome.squeezed.then_some(CcdError::Squeezed))
+        .or(beyond);
 }
 
 /// The [`BodyState`] of an entry.
@@ -376,7 +382,8 @@ pub(crate) fn solve_lane(
                         body.sweep.swept_disc_aabb(body.reach),
                         shared.settings.linear_slop,
                     ));
-            if body.error.is_none() && (body.candidate_count > 0 || movers) {
+            if body.error.is_none_or(|e| e == BEYOND_LIMIT) && (body.candidate_count > 0 || movers)
+            {
                 // The targets' records, touched alongside the colliders so that these
                 // misses overlap too.
                 if touch {

@@ -56,6 +56,13 @@ pub fn headless_app(timestep: f64) -> App {
 /// [`headless_app`] with the given plugin (hooks, schedules).
 pub fn headless_app_with(timestep: f64, plugin: CcdPlugin) -> App {
     let mut app = App::new();
+    make_headless(&mut app, timestep, plugin);
+    app
+}
+
+/// Adds the time plugin and `plugin` to `app`, set so that every `update` runs exactly one
+/// fixed step of `timestep` seconds ([`headless_app`] for an app that already has entities).
+pub fn make_headless(app: &mut App, timestep: f64, plugin: CcdPlugin) {
     app.add_plugins((TimePlugin, plugin));
     let step = Duration::from_secs_f64(timestep);
     app.insert_resource(Time::<Fixed>::from_duration(step));
@@ -71,7 +78,6 @@ pub fn headless_app_with(timestep: f64, plugin: CcdPlugin) -> App {
     app.world_mut()
         .resource_mut::<Time<Real>>()
         .update_with_duration(Duration::ZERO);
-    app
 }
 
 /// Runs fixed steps on an app made by [`headless_app`] (or any app whose

@@ -33,7 +33,9 @@ pub(crate) struct BodyEntry {
     pub(crate) angular: f32,
     /// This body's candidate targets: `lane.candidates[candidates..candidates + count]`.
     pub(crate) candidates: u32,
-    pub(crate) candidate_count: u32,
+    /// At most `u16::MAX` (a body whose swept bound meets more targets is
+    /// [`CcdError::CoordinatesTooLarge`]): two bytes, so that the entry stays 104 bytes.
+    pub(crate) candidate_count: u16,
     /// This body's impacts: `lane.impacts[impacts..impacts + impact_count]`.
     pub(crate) impacts: u32,
     pub(crate) impact_count: u16,
@@ -45,9 +47,17 @@ pub(crate) struct BodyEntry {
     /// Why the body was not swept, or the time of impact that failed.
     pub(crate) error: Option<CcdError>,
     /// The shape's reach about its centre of mass ([`StepPoses`](super::StepPoses)' copy of the
-    /// collider's).
+    /// collider's, times `scale`).
     pub(crate) reach: f32,
+    /// The body's uniform world scale, which scales its collider and mass (see
+    /// [`StepPoses`](super::StepPoses)' copy: 0 or NaN for a `Transform` that cannot be swept).
+    pub(crate) scale: f32,
 }
+
+/// [`BodyEntry::error`] of a body whose step leaves the coordinate limit, swept only as far as
+/// the limit ([`fill`](super::gather::fill)): it is solved all the same, and keeps the error
+/// only if nothing stops it before the limit, where it then ends.
+pub(crate) const BEYOND_LIMIT: CcdError = CcdError::Toi(geometry::ToiFailure::CoordinatesTooLarge);
 
 /// [`BodyEntry::flags`]: the body keeps a [`Velocity`](super::Velocity).
 pub(crate) const HAS_VELOCITY: u8 = 1;
@@ -210,6 +220,7 @@ impl CcdWorkspace {
         for index in first..first + count {
             self.statics.disable(index);
         }
+        self.sensors.removed(entity);
     }
 
     /// A part's [`Collider`](super::Collider) was removed: if it is in the hierarchy, the

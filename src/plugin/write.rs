@@ -19,7 +19,14 @@ fn set_error(toi: &mut Mut<CcdOutcome>, entity: Entity, error: CcdError) {
     let outcome = CcdOutcome::Error(error);
     if **toi != outcome {
         if toi.error() != Some(error) && error != CcdError::InvalidSettings {
-            log::warn!("bevy_ccd: body {entity} not swept this step: {error:?}; left where it is");
+            match error {
+                CcdError::Toi(_) => log::warn!(
+                    "bevy_ccd: body {entity}: {error:?}; stopped at the last pose known to be clear"
+                ),
+                _ => log::warn!(
+                    "bevy_ccd: body {entity} not swept this step: {error:?}; left where it is"
+                ),
+            }
         }
         **toi = outcome;
     }
@@ -98,7 +105,7 @@ pub(crate) fn write_lane(
             };
             transform.translation.x = local.x;
             transform.translation.y = local.y;
-            transform.rotation = Quat::from_rotation_z(local_angle);
+            transform.rotation = turned(transform.rotation, local_angle, angle - sweep.end_angle);
         }
         let sweep = sweep.bypass_change_detection();
         sweep.resolved_position = position;
@@ -117,7 +124,11 @@ pub(crate) fn write_lane(
             substeps: body.substeps as u32,
         });
         let outcome = match (body.error, hits) {
-            (Some(error), _) => CcdOutcome::Error(error),
+            (Some(error), _) => {
+                // Stopped where the time of impact failed, or at the limit: a warning.
+                set_error(&mut toi, body.entity, error);
+                continue;
+            }
             (None, hits) if body.flags & OVERLAPPING != 0 => CcdOutcome::Overlapping(hits),
             (None, Some(hits)) => CcdOutcome::Hit(hits),
             (None, None) => CcdOutcome::Clear,
@@ -127,6 +138,21 @@ pub(crate) fn write_lane(
         if *toi != outcome {
             *toi = outcome;
         }
+    }
+}
+
+/// The rotation written back for a body the step turned to `local_angle` about z, `turn` away
+/// from where its user left it, `user`: only the rotation about z changes. An upright body
+/// (`user` about z alone, the common case) gets the plain rotation by `local_angle`; one with a
+/// part out of the plane (a sprite mirrored by a half turn about y, a slight tilt) gets `user`
+/// turned by `turn` about z, so that its part out of the plane stays: a mirror's z and w stay
+/// exactly 0.
+#[inline]
+fn turned(user: Quat, local_angle: f32, turn: f32) -> Quat {
+    if user.x == 0.0 && user.y == 0.0 {
+        Quat::from_rotation_z(local_angle)
+    } else {
+        Quat::from_rotation_z(turn) * user
     }
 }
 

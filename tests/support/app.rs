@@ -123,6 +123,19 @@ pub fn spawn_wall(app: &mut App, at: Vec2, half_thickness: f32, half_height: f32
     spawn_box(app, Vec2::new(half_thickness, half_height), at)
 }
 
+/// A closed box of 1 cm walls, its inside from -`half` to `half` on both axes.
+pub fn spawn_room(app: &mut App, half: f32) {
+    let t = 0.005;
+    for s in [-1.0, 1.0] {
+        spawn_wall(app, Vec2::new(s * (half + t), 0.0), t, half + 2.0 * t);
+        spawn_box(
+            app,
+            Vec2::new(half + 2.0 * t, t),
+            Vec2::new(0.0, s * (half + t)),
+        );
+    }
+}
+
 /// A ball with `CcdEnabled`, then `extras` (which may replace it).
 pub fn spawn_ball(
     app: &mut App,

@@ -15,8 +15,8 @@ use glam::Vec2;
 use smallvec::SmallVec;
 
 use crate::geometry::constants::{
-    CONTACT_PASSES, MAX_CONTACTS, MAX_CONTACTS_AT_ONE_POSE, MAX_SUBSTEPS, separation_tolerance,
-    target_separation,
+    CONTACT_PASSES, MAX_CONTACTS, MAX_CONTACTS_AT_ONE_POSE, MAX_SUBSTEPS, max_world_coordinate,
+    separation_tolerance, target_separation,
 };
 use crate::geometry::math::{Pose, left_perp};
 use crate::geometry::query::toi::{BodyFrame, ToiFailure};
@@ -122,8 +122,10 @@ pub struct BodyOutcome {
     pub substeps: u32,
     /// The body started the step overlapping a target.
     pub started_overlapping: bool,
-    /// A time-of-impact failure (the body was clamped at the last clear time) or a failed
-    /// response (the body was clamped at the impact).
+    /// A time-of-impact failure (the body was clamped at the last clear time), a failed
+    /// response (the body was clamped at the impact), or a sub-step that would end beyond
+    /// [`max_world_coordinate`] of the slop (`CoordinatesTooLarge`: the body was stopped at the
+    /// impact, with its new velocity).
     pub failure: Option<ToiFailure>,
     /// The body was moved out along a contact's normal before it was swept: its sharp corner
     /// was a few micrometres from the target (closer than the time of impact can search from,
@@ -835,13 +837,23 @@ fn solve(
         }
         // Spend the rest of the step from the impact with the new velocity.
         let remaining = (1.0 - step_fraction) * dt;
-        sweep = Sweep::new(
+        let rest = Sweep::new(
             body.local_center,
             center,
             angle,
             center + velocity.0 * remaining,
             angle + velocity.1 * remaining,
         );
+        // Unless that leaves the coordinate limit (a bounce at an extreme speed): then the
+        // body stops at the impact with its new velocity, and the next step, which starts
+        // there, is swept as far as the limit.
+        if rest.c1.abs().max_element() + reach > max_world_coordinate(slop) {
+            result.position = pose.p;
+            result.angle = angle;
+            result.failure = Some(ToiFailure::CoordinatesTooLarge);
+            break;
+        }
+        sweep = rest;
         step_start = step_fraction;
         result.substeps += 1;
     }

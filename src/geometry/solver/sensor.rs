@@ -78,7 +78,9 @@ pub(crate) fn sense_path(
     for (k, piece) in path.iter().enumerate() {
         scratch.clear();
         sensors.candidates(proxy, &piece.sweep, linear_slop, scratch);
-        for &index in scratch.iter().filter(|&&i| accepts(i)) {
+        // A sensor removed during the step ([`StaticSet::disable`]) reports nothing.
+        let live = |i: u32| !sensors.is_disabled(i as usize) && accepts(i);
+        for &index in scratch.iter().filter(|&&i| live(i)) {
             let bit = if k < 64 { 1u64 << k } else { 0 };
             match near.iter_mut().find(|n| n.0 == index) {
                 Some(n) => n.1 |= bit,
