@@ -5,10 +5,13 @@
 //! Four rooms: `shape` (the shapes and the support map GJK reads of them, `shape::proxy`),
 //! `query` (GJK, the time of impact, ray entry, casts), `bvh` (the static hierarchy) and
 //! `solver` (one body's step against the targets); `math`, `sweep` (the motion over a step)
-//! and `constants` are shared by all.
+//! and `constants` are shared by all. The time of impact's search and the tree's build and
+//! walks are written once over `dim`, the dimension's vectors, rotations and poses (as parry
+//! shares one source tree between 2D and 3D); the plane's parts are in their `plane` files.
 
 mod bvh;
 pub mod constants;
+pub(crate) mod dim;
 mod math;
 pub(crate) mod query;
 mod shape;

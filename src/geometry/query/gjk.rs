@@ -35,29 +35,34 @@ pub struct SimplexCache {
 }
 
 /// Input of [`shape_distance`].
+///
+/// The shape and pose types are the plane's by default (the parameters let the shared
+/// search name them for any dimension).
 #[derive(Clone, Copy, Debug)]
-pub struct DistanceInput<'a> {
+pub struct DistanceInput<'a, P = ShapeProxy, X = Pose> {
     /// Shape A.
-    pub proxy_a: &'a ShapeProxy,
+    pub proxy_a: &'a P,
     /// Shape B.
-    pub proxy_b: &'a ShapeProxy,
+    pub proxy_b: &'a P,
     /// Pose of A.
-    pub pose_a: Pose,
+    pub pose_a: X,
     /// Pose of B.
-    pub pose_b: Pose,
+    pub pose_b: X,
     /// Whether to subtract the radii (true: surface distance; false: core distance).
     pub use_radii: bool,
 }
 
 /// Output of [`shape_distance`].
+///
+/// The points and normal are the plane's vectors by default.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct DistanceOutput {
+pub struct DistanceOutput<V = Vec2> {
     /// Closest point on A (world).
-    pub point_a: Vec2,
+    pub point_a: V,
     /// Closest point on B (world).
-    pub point_b: Vec2,
+    pub point_b: V,
     /// Unit normal from A to B; zero when the cores overlap.
-    pub normal: Vec2,
+    pub normal: V,
     /// The distance between the closest points (m); 0 when the cores overlap. With radii, may
     /// be negative: minus the penetration of the rounded shapes.
     pub distance: f32,

@@ -8,6 +8,7 @@
 use glam::Vec2;
 
 use crate::geometry::constants::MAX_POLYGON_VERTICES;
+use crate::geometry::dim::{SupportMap, Vector};
 use crate::geometry::math::Pose;
 use crate::geometry::shape::{Aabb, ShapeError};
 
@@ -207,14 +208,15 @@ impl ShapeProxy {
 
 /// The index of the point of `points` (not empty) farthest along `direction`, the first one
 /// on ties: [`ShapeProxy::support`], and GJK's support of a shape whose points it has moved.
+/// In either dimension.
 #[inline]
-pub(crate) fn support_index(points: &[Vec2], direction: Vec2) -> usize {
+pub(crate) fn support_index<V: Vector>(points: &[V], direction: V) -> usize {
     support(points, direction).0
 }
 
 /// [`support_index`] with the point's value along `direction`.
 #[inline]
-pub(crate) fn support(points: &[Vec2], direction: Vec2) -> (usize, f32) {
+pub(crate) fn support<V: Vector>(points: &[V], direction: V) -> (usize, f32) {
     let mut best = 0;
     let mut best_value = direction.dot(points[0]);
     for (i, p) in points.iter().enumerate().skip(1) {
@@ -225,6 +227,33 @@ pub(crate) fn support(points: &[Vec2], direction: Vec2) -> (usize, f32) {
         }
     }
     (best, best_value)
+}
+
+impl SupportMap<Vec2> for ShapeProxy {
+    #[inline(always)]
+    fn radius(&self) -> f32 {
+        self.radius
+    }
+    #[inline(always)]
+    fn points(&self) -> &[Vec2] {
+        ShapeProxy::points(self)
+    }
+    #[inline(always)]
+    fn point(&self, index: usize) -> Vec2 {
+        ShapeProxy::point(self, index)
+    }
+    #[inline(always)]
+    fn count(&self) -> usize {
+        ShapeProxy::count(self)
+    }
+    #[inline(always)]
+    fn support(&self, direction: Vec2) -> usize {
+        ShapeProxy::support(self, direction)
+    }
+    #[inline(always)]
+    fn max_distance_from(&self, center: Vec2) -> f32 {
+        ShapeProxy::max_distance_from(self, center)
+    }
 }
 
 #[cfg(test)]

@@ -38,11 +38,110 @@
 //! Queries take `&self` and the type holds only plain vectors, so it is `Send + Sync` and can be
 //! shared by any number of querying threads.
 
+mod build;
+mod plane;
+
 use core::fmt;
 
-use glam::{Vec2, Vec4};
+use glam::Vec4;
 
+use super::dim::Vector;
 use super::shape::Aabb;
+use build::{morton_sort, split};
+
+/// The box a tree holds, in its dimension (the plane's [`Aabb`]). Sealed: the crate
+/// implements it for its own boxes only.
+///
+/// A box is *packed* for the tree as its lower corner and its negated upper corner, so that
+/// the union of two is one component-wise `min`; the children of a wide node and the items of
+/// a block are kept *transposed*, one four-lane vector per coordinate of that packing (four
+/// in the plane, six in space), so that one comparison per coordinate tests four boxes.
+pub trait TreeBox: Copy + fmt::Debug + PartialEq + Send + Sync + 'static + private::Sealed {
+    /// The dimension's vector.
+    #[doc(hidden)]
+    type Vector: Vector;
+    /// A packed box: `(min, -max)`.
+    #[doc(hidden)]
+    type Packed: Copy + fmt::Debug + PartialEq + Send + Sync;
+    /// Four packed boxes transposed: one vector per packed coordinate.
+    #[doc(hidden)]
+    type Lanes: Copy + fmt::Debug + Send + Sync;
+    /// One value per axis.
+    #[doc(hidden)]
+    type PerAxis<T: Copy>: Copy + AsRef<[T]> + AsMut<[T]>;
+    /// A cast's slab-test constants, splatted.
+    #[doc(hidden)]
+    type Ray: Copy;
+
+    /// The packed box that holds nothing: `min = +inf`, `max = -inf`. It is the identity of
+    /// the packed union, and it overlaps no query because queries are clamped to finite
+    /// values.
+    #[doc(hidden)]
+    const EMPTY: Self::Packed;
+    /// Four empty lanes.
+    #[doc(hidden)]
+    const EMPTY_LANES: Self::Lanes;
+
+    #[doc(hidden)]
+    fn per_axis<T: Copy>(value: T) -> Self::PerAxis<T>;
+    /// Whether both corners are finite and `min <= max`.
+    #[doc(hidden)]
+    fn valid(&self) -> bool;
+    /// The box packed, or [`Self::EMPTY`] when it is not valid.
+    #[doc(hidden)]
+    fn pack(&self) -> Self::Packed;
+    /// The box a packed box stands for.
+    #[doc(hidden)]
+    fn unpack(packed: Self::Packed) -> Self;
+    /// The union of two packed boxes.
+    #[doc(hidden)]
+    fn union(a: Self::Packed, b: Self::Packed) -> Self::Packed;
+    /// The surface-area heuristic's cost of visiting a packed, non-empty box (half its
+    /// perimeter in the plane, half its area in space).
+    #[doc(hidden)]
+    fn cost(packed: Self::Packed) -> f32;
+    /// The centre, halved before adding (`min + max` can overflow for huge finite boxes).
+    #[doc(hidden)]
+    fn centroid(&self) -> Self::Vector;
+    /// The box as a query, `(max, -min)`, each coordinate splatted over four lanes, lanes
+    /// above `f32::MAX` lowered to it (which changes no answer for a finite stored box but
+    /// keeps [`Self::EMPTY`] from ever matching; NaN lanes stay NaN and match nothing).
+    #[doc(hidden)]
+    fn splat_query(&self) -> Self::Lanes;
+    /// Puts a packed box in `lane` of four.
+    #[doc(hidden)]
+    fn set_lane(lanes: &mut Self::Lanes, lane: usize, packed: Self::Packed);
+    /// The packed box in `lane` of four.
+    #[doc(hidden)]
+    fn lane(lanes: &Self::Lanes, lane: usize) -> Self::Packed;
+    /// Which of four transposed boxes overlap the splatted query (a bit per lane): every
+    /// stored coordinate `<=` the query's.
+    #[doc(hidden)]
+    fn hits(lanes: &Self::Lanes, query: &Self::Lanes) -> u32;
+    /// The axis along which `size` is largest (the lower on ties).
+    #[doc(hidden)]
+    fn widest_axis(size: Self::Vector) -> usize;
+    /// The scale that maps a centroid range of `size` onto the Morton grid (0 on an axis of
+    /// no or infinite extent).
+    #[doc(hidden)]
+    fn morton_scale(size: Self::Vector) -> Self::Vector;
+    /// The Morton code of a point scaled onto the grid.
+    #[doc(hidden)]
+    fn morton_code(scaled: Self::Vector) -> u32;
+    /// A box of half-extents `half` cast from `origin` along `delta`, for [`Self::slabs`].
+    #[doc(hidden)]
+    fn ray(origin: Self::Vector, delta: Self::Vector, half: Self::Vector) -> Self::Ray;
+    /// Entry times of four transposed boxes, and which of them the cast crosses before
+    /// `t_max`.
+    #[doc(hidden)]
+    fn slabs(lanes: &Self::Lanes, ray: &Self::Ray, t_max: f32) -> (Vec4, u32);
+}
+
+mod private {
+    /// Only the crate's boxes are tree boxes.
+    pub trait Sealed {}
+    impl Sealed for crate::geometry::shape::Aabb {}
+}
 
 /// The most items a leaf holds; a node is split exactly when it has more.
 ///
@@ -99,70 +198,13 @@ const MORTON_SORT_MIN_ITEMS: usize = 4096;
 /// than `2n` nodes.
 const MAX_ITEMS: usize = (u32::MAX / 2) as usize;
 
-/// The packed box that holds nothing: `min = +inf`, `max = -inf`.
-///
-/// It is the identity of the packed union (`min` with `+inf` changes nothing), and it overlaps
-/// no query because queries are clamped to finite values (see [`pack_query`]).
-const EMPTY: Vec4 = Vec4::INFINITY;
-
-/// Packs a box as `(min.x, min.y, -max.x, -max.y)`, or [`EMPTY`] when it is not
-/// [`Aabb::is_valid`] (non-finite or inverted).
-#[inline]
-fn pack(b: &Aabb) -> Vec4 {
-    if b.is_valid() {
-        Vec4::new(b.min.x, b.min.y, -b.max.x, -b.max.y)
-    } else {
-        EMPTY
-    }
-}
-
-/// The box a packed box stands for.
-#[inline]
-fn unpack(v: Vec4) -> Aabb {
-    Aabb {
-        min: Vec2::new(v.x, v.y),
-        max: Vec2::new(-v.z, -v.w),
-    }
-}
-
-/// Half the perimeter of a packed, non-empty box: the SAH cost of visiting it in 2D.
-#[inline]
-fn half_perimeter(v: Vec4) -> f32 {
-    (-v.z - v.x) + (-v.w - v.y)
-}
-
-/// Packs a query as `(max.x, max.y, -min.x, -min.y)` so that a stored box `b` overlaps it exactly
-/// when `b <= q` in all four lanes, i.e. when [`Aabb::overlaps`] holds.
-///
-/// Lanes above `f32::MAX` (an infinite query edge) are lowered to `f32::MAX`. That changes no
-/// answer for a finite stored box, but keeps [`EMPTY`] (`+inf`) from ever matching. NaN lanes
-/// stay NaN, so a query with a NaN edge matches nothing, as with `Aabb::overlaps`.
-#[inline]
-fn pack_query(b: &Aabb) -> Vec4 {
-    let q = Vec4::new(b.max.x, b.max.y, -b.min.x, -b.min.y);
-    let cap = Vec4::splat(f32::MAX);
-    Vec4::select(q.cmpgt(cap), cap, q)
-}
-
-/// [`pack_query`] with each lane splatted, for the four-lane tests of [`Bvh::visit`].
-#[inline]
-fn splat_query(b: &Aabb) -> [Vec4; 4] {
-    let q = pack_query(b);
-    [
-        Vec4::splat(q.x),
-        Vec4::splat(q.y),
-        Vec4::splat(q.z),
-        Vec4::splat(q.w),
-    ]
-}
-
 /// One node of the tree: 32 bytes (the packed box, 8 bytes of indices and 8 of padding from
 /// the 16-byte alignment of `Vec4`); a sibling pair is 64 bytes.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[repr(C, align(32))]
-struct Node {
+struct Node<B: TreeBox> {
     /// Packed bounds of everything below.
-    bounds: Vec4,
+    bounds: B::Packed,
     /// Inner node: index of the first child (the second follows it). Leaf: first item slot.
     first: u32,
     /// Number of items of a leaf; 0 marks an inner node (a leaf is never empty).
@@ -175,13 +217,10 @@ struct Node {
 /// tests and an unpredictable branch per level; the wide one has half the levels. 96 bytes.
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(16))]
-struct Wide {
-    /// The children's packed boxes `(min.x, min.y, -max.x, -max.y)`, transposed; absent
-    /// children are [`EMPTY`] (which overlaps no query).
-    min_x: Vec4,
-    min_y: Vec4,
-    neg_max_x: Vec4,
-    neg_max_y: Vec4,
+struct Wide<B: TreeBox> {
+    /// The children's packed boxes, transposed; absent children are [`TreeBox::EMPTY`]
+    /// (which overlaps no query).
+    lanes: B::Lanes,
     /// Per child: the index of its wide node (`count` 0) or its first [`Block`] (a leaf).
     first: [u32; 4],
     /// Per child: its number of blocks if it is a leaf (at least one), 0 if it is a wide node.
@@ -193,43 +232,31 @@ struct Wide {
 /// Unused lanes are [`EMPTY`]. 80 bytes.
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(16))]
-struct Block {
-    min_x: Vec4,
-    min_y: Vec4,
-    neg_max_x: Vec4,
-    neg_max_y: Vec4,
+struct Block<B: TreeBox> {
+    lanes: B::Lanes,
     /// The id in each lane; `u32::MAX` in unused lanes. Kept beside the boxes rather than in
     /// an array of their own: a hit then reads its id from the leaf's own (already requested)
     /// cache lines instead of missing once more (see [`Bvh::visit`]).
     ids: [u32; 4],
 }
 
-impl Block {
+impl<B: TreeBox> Block<B> {
     const EMPTY: Self = Self {
-        min_x: EMPTY,
-        min_y: EMPTY,
-        neg_max_x: EMPTY,
-        neg_max_y: EMPTY,
+        lanes: B::EMPTY_LANES,
         ids: [u32::MAX; 4],
     };
 }
 
-impl Wide {
+impl<B: TreeBox> Wide<B> {
     const EMPTY: Self = Self {
-        min_x: EMPTY,
-        min_y: EMPTY,
-        neg_max_x: EMPTY,
-        neg_max_y: EMPTY,
+        lanes: B::EMPTY_LANES,
         first: [0; 4],
         count: [0; 4],
     };
 
     /// Puts a child with packed box `b` in `lane`.
-    fn set(&mut self, lane: usize, b: Vec4, first: u32, count: u32) {
-        self.min_x[lane] = b.x;
-        self.min_y[lane] = b.y;
-        self.neg_max_x[lane] = b.z;
-        self.neg_max_y[lane] = b.w;
+    fn set(&mut self, lane: usize, b: B::Packed, first: u32, count: u32) {
+        B::set_lane(&mut self.lanes, lane, b);
         self.first[lane] = first;
         self.count[lane] = count;
     }
@@ -238,9 +265,9 @@ impl Wide {
 /// An item while the tree is built; the build partitions these in place, so at the end their
 /// order is the leaf order. 32 bytes, so the partition moves whole cache-line halves.
 #[derive(Clone, Copy, Debug)]
-struct BuildItem {
-    bounds: Vec4,
-    centroid: Vec2,
+struct BuildItem<B: TreeBox> {
+    bounds: B::Packed,
+    centroid: B::Vector,
     /// Index in the build input, kept for [`Bvh::refit`].
     input: u32,
     id: u32,
@@ -249,28 +276,30 @@ struct BuildItem {
 /// The bounds of a run of build items: their packed box and the range of their centroids
 /// (which is what SAH bins).
 #[derive(Clone, Copy, Debug)]
-struct Extent {
-    bounds: Vec4,
-    cmin: Vec2,
-    cmax: Vec2,
+struct Extent<B: TreeBox> {
+    bounds: B::Packed,
+    cmin: B::Vector,
+    cmax: B::Vector,
 }
 
-impl Extent {
-    const EMPTY: Self = Self {
-        bounds: EMPTY,
-        cmin: Vec2::INFINITY,
-        cmax: Vec2::NEG_INFINITY,
-    };
+impl<B: TreeBox> Extent<B> {
+    fn empty() -> Self {
+        Self {
+            bounds: B::EMPTY,
+            cmin: B::Vector::splat(f32::INFINITY),
+            cmax: B::Vector::splat(f32::NEG_INFINITY),
+        }
+    }
 
     #[inline]
-    fn add(&mut self, item: &BuildItem) {
-        self.bounds = self.bounds.min(item.bounds);
+    fn add(&mut self, item: &BuildItem<B>) {
+        self.bounds = B::union(self.bounds, item.bounds);
         self.cmin = self.cmin.min(item.centroid);
         self.cmax = self.cmax.max(item.centroid);
     }
 
-    fn of(items: &[BuildItem]) -> Self {
-        let mut e = Self::EMPTY;
+    fn of(items: &[BuildItem<B>]) -> Self {
+        let mut e = Self::empty();
         for item in items {
             e.add(item);
         }
@@ -281,8 +310,8 @@ impl Extent {
 /// A node still to be built: its index, its range of build items and their extent (known from
 /// the parent's split, so no node rescans its items just to find its bounds).
 #[derive(Clone, Copy, Debug)]
-struct BuildTask {
-    extent: Extent,
+struct BuildTask<B: TreeBox> {
+    extent: Extent<B>,
     node: u32,
     start: u32,
     end: u32,
@@ -291,18 +320,29 @@ struct BuildTask {
 
 /// Buffers reused from one build to the next. They hold no state between builds, so cloning a
 /// tree starts the clone with empty ones instead of copying megabytes of stale data.
-#[derive(Default)]
-struct BuildScratch {
-    items: Vec<BuildItem>,
+struct BuildScratch<B: TreeBox> {
+    items: Vec<BuildItem<B>>,
     /// Second item buffer and sort keys of [`morton_sort`].
-    sorted: Vec<BuildItem>,
+    sorted: Vec<BuildItem<B>>,
     keys: Vec<u64>,
-    tasks: Vec<BuildTask>,
+    tasks: Vec<BuildTask<B>>,
     /// Work list of [`Bvh::fold_wide`].
     fold: Vec<(u32, u32)>,
 }
 
-impl Clone for BuildScratch {
+impl<B: TreeBox> Default for BuildScratch<B> {
+    fn default() -> Self {
+        Self {
+            items: Vec::new(),
+            sorted: Vec::new(),
+            keys: Vec::new(),
+            tasks: Vec::new(),
+            fold: Vec::new(),
+        }
+    }
+}
+
+impl<B: TreeBox> Clone for BuildScratch<B> {
     fn clone(&self) -> Self {
         Self::default()
     }
@@ -310,8 +350,8 @@ impl Clone for BuildScratch {
 
 /// One SAH bin: the items whose centroid falls in a slice of the node's centroid range.
 #[derive(Clone, Copy)]
-struct Bin {
-    bounds: Vec4,
+struct Bin<B: TreeBox> {
+    bounds: B::Packed,
     count: u32,
 }
 
@@ -324,12 +364,15 @@ struct Bin {
 /// skipped: they are not stored, not counted by [`Bvh::len`] and never returned.
 ///
 /// `Debug` prints a summary (item count, node count, depth, bounds), not every node.
-#[derive(Clone, Default)]
-pub struct Bvh {
+///
+/// The boxes are the plane's [`Aabb`] by default: the tree's build and walks are written
+/// over [`TreeBox`], one code for any dimension's boxes.
+#[derive(Clone)]
+pub struct Bvh<B: TreeBox = Aabb> {
     /// The nodes; `nodes[0]` is the root, children always come after their parent.
-    nodes: Vec<Node>,
+    nodes: Vec<Node<B>>,
     /// Packed box of each item slot, in leaf order.
-    item_bounds: Vec<Vec4>,
+    item_bounds: Vec<B::Packed>,
     /// Id of each item slot.
     item_ids: Vec<u32>,
     /// Build-input index of each item slot, so [`Bvh::refit`] can read its new box.
@@ -339,13 +382,29 @@ pub struct Bvh {
     /// Depth of the deepest leaf (the root has depth 0).
     depth: u32,
     /// The same tree folded four-wide, for the queries; `wide[0]` is the root's.
-    wide: Vec<Wide>,
+    wide: Vec<Wide<B>>,
     /// The leaves' items in blocks of four, leaf after leaf, for the queries.
-    blocks: Vec<Block>,
-    scratch: BuildScratch,
+    blocks: Vec<Block<B>>,
+    scratch: BuildScratch<B>,
 }
 
-impl fmt::Debug for Bvh {
+impl<B: TreeBox> Default for Bvh<B> {
+    fn default() -> Self {
+        Self {
+            nodes: Vec::new(),
+            item_bounds: Vec::new(),
+            item_ids: Vec::new(),
+            item_inputs: Vec::new(),
+            input_len: 0,
+            depth: 0,
+            wide: Vec::new(),
+            blocks: Vec::new(),
+            scratch: BuildScratch::default(),
+        }
+    }
+}
+
+impl<B: TreeBox> fmt::Debug for Bvh<B> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.debug_struct("Bvh")
             .field("len", &self.len())
@@ -356,7 +415,7 @@ impl fmt::Debug for Bvh {
     }
 }
 
-impl Bvh {
+impl<B: TreeBox> Bvh<B> {
     /// An empty tree. It allocates nothing until the first [`Bvh::build`].
     pub fn new() -> Self {
         Self::default()
@@ -373,7 +432,7 @@ impl Bvh {
     /// # Panics
     ///
     /// If `items` holds more than `u32::MAX / 2` entries (node indices are `u32`).
-    pub fn build(&mut self, items: &[(u32, Aabb)]) {
+    pub fn build(&mut self, items: &[(u32, B)]) {
         assert!(
             items.len() <= MAX_ITEMS,
             "Bvh::build: more than u32::MAX / 2 items"
@@ -403,11 +462,10 @@ impl Bvh {
             items
                 .iter()
                 .enumerate()
-                .filter(|(_, (_, b))| b.is_valid())
+                .filter(|(_, (_, b))| b.valid())
                 .map(|(i, &(id, b))| BuildItem {
-                    bounds: pack(&b),
-                    // Halve before adding: `min + max` can overflow for huge finite boxes.
-                    centroid: 0.5 * b.min + 0.5 * b.max,
+                    bounds: b.pack(),
+                    centroid: b.centroid(),
                     input: i as u32,
                     id,
                 }),
@@ -419,7 +477,7 @@ impl Bvh {
         // A binary tree with leaves of at least one item has at most 2n - 1 nodes.
         nodes.reserve(2 * build.len() - 1);
         nodes.push(Node {
-            bounds: EMPTY,
+            bounds: B::EMPTY,
             first: 0,
             count: 0,
         });
@@ -455,12 +513,12 @@ impl Bvh {
             let mid = task.start + mid as u32;
             let left = nodes.len() as u32;
             nodes.push(Node {
-                bounds: EMPTY,
+                bounds: B::EMPTY,
                 first: 0,
                 count: 0,
             });
             nodes.push(Node {
-                bounds: EMPTY,
+                bounds: B::EMPTY,
                 first: 0,
                 count: 0,
             });
@@ -523,10 +581,7 @@ impl Bvh {
             {
                 let mut block = Block::EMPTY;
                 for (lane, (b, &id)) in bounds.iter().zip(ids).enumerate() {
-                    block.min_x[lane] = b.x;
-                    block.min_y[lane] = b.y;
-                    block.neg_max_x[lane] = b.z;
-                    block.neg_max_y[lane] = b.w;
+                    B::set_lane(&mut block.lanes, lane, *b);
                     block.ids[lane] = id;
                 }
                 blocks.push(block);
@@ -586,10 +641,10 @@ impl Bvh {
     ///
     /// `O(n)`, no allocation. The tree's shape is kept, so queries slow down if items move far
     /// from where they were built; rebuild then.
-    pub fn refit(&mut self, boxes: &[Aabb]) {
+    pub fn refit(&mut self, boxes: &[B]) {
         for (slot, &input) in self.item_bounds.iter_mut().zip(&self.item_inputs) {
             if let Some(b) = boxes.get(input as usize) {
-                *slot = pack(b);
+                *slot = b.pack();
             }
         }
         // Children come after their parent, so a reverse sweep sees every child first.
@@ -599,9 +654,9 @@ impl Bvh {
             let bounds = if node.count > 0 {
                 self.item_bounds[first..first + node.count as usize]
                     .iter()
-                    .fold(EMPTY, |acc, &b| acc.min(b))
+                    .fold(B::EMPTY, |acc, &b| B::union(acc, b))
             } else {
-                self.nodes[first].bounds.min(self.nodes[first + 1].bounds)
+                B::union(self.nodes[first].bounds, self.nodes[first + 1].bounds)
             };
             self.nodes[i].bounds = bounds;
         }
@@ -614,7 +669,7 @@ impl Bvh {
     /// An item is reported exactly when `item_box.overlaps(bounds)` ([`Aabb::overlaps`]); the
     /// order does not depend on the tree's shape. Entries already in `out` are kept and not
     /// sorted with the new ones. Allocates nothing when `out` has room for the hits.
-    pub fn query(&self, bounds: &Aabb, out: &mut Vec<u32>) {
+    pub fn query(&self, bounds: &B, out: &mut Vec<u32>) {
         let start = out.len();
         self.for_each_overlap(bounds, |id| out.push(id));
         // Hits are few (a body touches a handful of colliders), so sorting costs little and
@@ -627,7 +682,7 @@ impl Bvh {
     /// Same hits as [`Bvh::query`] but in tree order, which is deterministic for a given build
     /// input but changes with it: use it when the order does not matter (for example to count
     /// or to test for any hit) and the sort is worth saving.
-    pub fn for_each_overlap(&self, bounds: &Aabb, f: impl FnMut(u32)) {
+    pub fn for_each_overlap(&self, bounds: &B, f: impl FnMut(u32)) {
         // A stack as deep as the walk can need, zeroed on every query: a short one for every
         // real tree (15 binary levels for 100,000 items), the full bound only for
         // pathological ones. Each wide level leaves at most three siblings pending.
@@ -640,11 +695,11 @@ impl Bvh {
 
     /// [`Bvh::for_each_overlap`] with a traversal stack of `N` slots.
     #[inline(always)]
-    fn walk<const N: usize>(&self, bounds: &Aabb, mut f: impl FnMut(u32)) {
+    fn walk<const N: usize>(&self, bounds: &B, mut f: impl FnMut(u32)) {
         if self.wide.is_empty() {
             return;
         }
-        let q = splat_query(bounds);
+        let q = bounds.splat_query();
         // Indexing would panic rather than corrupt memory if the stack bound were wrong.
         let mut stack = [0u32; N];
         let mut sp = 0;
@@ -659,23 +714,20 @@ impl Bvh {
         }
     }
 
-    /// Tests the children of wide node `node` against the query `q` ([`splat_query`]): pushes
+    /// Tests the children of wide node `node` against the query `q` ([`TreeBox::splat_query`]): pushes
     /// the inner children it overlaps on `stack`, scans the leaves it overlaps and calls `f`
     /// with each hit's id.
     #[inline(always)]
     fn visit(
         &self,
         node: usize,
-        q: &[Vec4; 4],
+        q: &B::Lanes,
         stack: &mut [u32],
         sp: &mut usize,
         f: &mut impl FnMut(u32),
     ) {
-        let [qx, qy, qz, qw] = *q;
         let w = &self.wide[node];
-        let hit =
-            w.min_x.cmple(qx) & w.min_y.cmple(qy) & w.neg_max_x.cmple(qz) & w.neg_max_y.cmple(qw);
-        let mut mask = hit.bitmask();
+        let mut mask = B::hits(&w.lanes, q);
         while mask != 0 {
             let lane = mask.trailing_zeros() as usize;
             mask &= mask - 1;
@@ -686,11 +738,7 @@ impl Bvh {
                 continue;
             }
             for b in &self.blocks[first..first + count] {
-                let mut hits = (b.min_x.cmple(qx)
-                    & b.min_y.cmple(qy)
-                    & b.neg_max_x.cmple(qz)
-                    & b.neg_max_y.cmple(qw))
-                .bitmask();
+                let mut hits = B::hits(&b.lanes, q);
                 while hits != 0 {
                     let lane = hits.trailing_zeros() as usize;
                     hits &= hits - 1;
@@ -711,9 +759,9 @@ impl Bvh {
     /// leaf order; the order is deterministic for a given build.
     pub fn cast(
         &self,
-        origin: Vec2,
-        delta: Vec2,
-        half: Vec2,
+        origin: B::Vector,
+        delta: B::Vector,
+        half: B::Vector,
         t_max: f32,
         visit: impl FnMut(u32, f32) -> f32,
     ) {
@@ -734,40 +782,14 @@ impl Bvh {
     #[inline(always)]
     fn cast_walk<const N: usize>(
         &self,
-        origin: Vec2,
-        delta: Vec2,
-        half: Vec2,
+        origin: B::Vector,
+        delta: B::Vector,
+        half: B::Vector,
         t_max: f32,
         mut visit: impl FnMut(u32, f32) -> f32,
     ) {
-        // Slab test (Kay and Kajiya): the segment is inside the box's x slab for
-        // `t in [(lo - o) / d, (hi - o) / d]` (ends swapped when `d < 0`), likewise for y. A
-        // zero component gets a huge finite reciprocal instead of an infinite one, which keeps
-        // `0 * inf` (a NaN) out: the slab is then all of time or none of it, as it should.
-        let inverse = |d: f32| {
-            let d = if d.abs() < 1e-30 {
-                1e-30f32.copysign(d)
-            } else {
-                d
-            };
-            1.0 / d
-        };
-        let (ix, iy) = (Vec4::splat(inverse(delta.x)), Vec4::splat(inverse(delta.y)));
-        let (ox, oy) = (Vec4::splat(origin.x), Vec4::splat(origin.y));
-        let (hx, hy) = (Vec4::splat(half.x), Vec4::splat(half.y));
+        let ray = B::ray(origin, delta, half);
         let mut t_max = t_max;
-        // Entry times of four boxes, and which of them the segment crosses before `t_max`.
-        let slabs = |min_x: Vec4, min_y: Vec4, neg_max_x: Vec4, neg_max_y: Vec4, t_max: f32| {
-            let (lo_x, hi_x) = (min_x - hx, hx - neg_max_x);
-            let (lo_y, hi_y) = (min_y - hy, hy - neg_max_y);
-            let (ax, bx) = ((lo_x - ox) * ix, (hi_x - ox) * ix);
-            let (ay, by) = ((lo_y - oy) * iy, (hi_y - oy) * iy);
-            let enter = ax.min(bx).max(ay.min(by)).max(Vec4::ZERO);
-            let exit = ax.max(bx).min(ay.max(by)).min(Vec4::splat(t_max));
-            // An empty box (`min = +inf`) is inverted: never crossed.
-            let valid = lo_x.cmple(hi_x) & lo_y.cmple(hi_y);
-            (enter, (enter.cmple(exit) & valid).bitmask())
-        };
         let mut stack = [(0u32, 0.0f32); N];
         let mut sp = 1;
         while sp > 0 {
@@ -777,7 +799,7 @@ impl Bvh {
                 continue;
             }
             let w = &self.wide[node as usize];
-            let (enter, mut mask) = slabs(w.min_x, w.min_y, w.neg_max_x, w.neg_max_y, t_max);
+            let (enter, mut mask) = B::slabs(&w.lanes, &ray, t_max);
             // Inner children are pushed farthest first, so the nearest is walked next.
             let mut inner = [(0u32, 0.0f32); 4];
             let mut n = 0;
@@ -796,8 +818,7 @@ impl Bvh {
                     continue;
                 }
                 for b in &self.blocks[first..first + count] {
-                    let (enter, mut hits) =
-                        slabs(b.min_x, b.min_y, b.neg_max_x, b.neg_max_y, t_max);
+                    let (enter, mut hits) = B::slabs(&b.lanes, &ray, t_max);
                     while hits != 0 {
                         let lane = hits.trailing_zeros() as usize;
                         hits &= hits - 1;
@@ -826,7 +847,7 @@ impl Bvh {
     /// # Panics
     ///
     /// If `counts` is shorter than `bounds`.
-    pub fn query_group(&self, bounds: &[Aabb], out: &mut Vec<u32>, counts: &mut [u32]) {
+    pub fn query_group(&self, bounds: &[B], out: &mut Vec<u32>, counts: &mut [u32]) {
         assert!(
             counts.len() >= bounds.len(),
             "Bvh::query_group: fewer counts than boxes"
@@ -855,8 +876,8 @@ impl Bvh {
     }
 
     /// [`Bvh::query_group`] for at most [`QUERY_GROUP`] boxes, with stacks of `N` slots.
-    fn walk_group<const N: usize>(&self, bounds: &[Aabb], out: &mut Vec<u32>, counts: &mut [u32]) {
-        let mut q = [[Vec4::ZERO; 4]; QUERY_GROUP];
+    fn walk_group<const N: usize>(&self, bounds: &[B], out: &mut Vec<u32>, counts: &mut [u32]) {
+        let mut q = [B::EMPTY_LANES; QUERY_GROUP];
         let mut stack = [[0u32; N]; QUERY_GROUP];
         let mut sp = [0usize; QUERY_GROUP];
         let mut node = [0usize; QUERY_GROUP];
@@ -864,7 +885,7 @@ impl Bvh {
         let mut found = [0usize; QUERY_GROUP];
         let mut live = 0u32;
         for (k, b) in bounds.iter().enumerate() {
-            q[k] = splat_query(b);
+            q[k] = b.splat_query();
             live |= 1 << k;
         }
         while live != 0 {
@@ -913,10 +934,10 @@ impl Bvh {
 
     /// The box around every stored item, or `None` when there is none (or a refit made every
     /// box invalid).
-    pub fn bounds(&self) -> Option<Aabb> {
+    pub fn bounds(&self) -> Option<B> {
         let root = self.nodes.first()?;
-        let b = unpack(root.bounds);
-        b.is_valid().then_some(b)
+        let b = B::unpack(root.bounds);
+        b.valid().then_some(b)
     }
 
     /// Depth of the deepest leaf (0 for a single leaf or an empty tree). Bounded by the build:
@@ -933,186 +954,10 @@ impl Bvh {
     }
 }
 
-/// Reorders `range` (more than [`LEAF_MAX_ITEMS`] items, with extent `extent`) into two
-/// non-empty halves; returns the size of the first and the extents of both.
-fn split(range: &mut [BuildItem], extent: &Extent, depth: u32) -> (usize, Extent, Extent) {
-    let size = extent.cmax - extent.cmin;
-    // `size` overflows to infinity for centroids near ±f32::MAX; the median handles those.
-    if depth < SAH_MAX_DEPTH
-        && size.is_finite()
-        && let Some((axis, bin)) = sah_split(range, extent.cmin, size)
-    {
-        let scale = bin_scale(size[axis]);
-        let lo = extent.cmin[axis];
-        let split = partition(range, |item| bin_of(item.centroid[axis], lo, scale) <= bin);
-        // sah_split only returns splits with items on both sides, and each item's bin is
-        // computed by the same expression here, so both halves are non-empty.
-        debug_assert!(split.0 > 0 && split.0 < range.len());
-        return split;
-    }
-    let mid = median_split(range, size);
-    (mid, Extent::of(&range[..mid]), Extent::of(&range[mid..]))
-}
-
-/// Reorders `items` along a Morton (Z-order) curve through their centroids.
-///
-/// This changes no split: SAH bins and the median are order-independent. It makes the items
-/// of every node spatially coherent in memory, so the partition's branches become predictable
-/// and its reads hit cache. Keys
-/// end with the item's position, so equal codes keep their order and the sort is total.
-fn morton_sort(
-    items: &mut Vec<BuildItem>,
-    sorted: &mut Vec<BuildItem>,
-    keys: &mut Vec<u64>,
-    extent: &Extent,
-) {
-    /// Moves the low 16 bits of `v` to the even bits.
-    fn spread(v: u32) -> u32 {
-        let mut x = v & 0xFFFF;
-        x = (x | (x << 8)) & 0x00FF_00FF;
-        x = (x | (x << 4)) & 0x0F0F_0F0F;
-        x = (x | (x << 2)) & 0x3333_3333;
-        (x | (x << 1)) & 0x5555_5555
-    }
-    let size = extent.cmax - extent.cmin;
-    // 16 bits per axis; an empty or overflowing range quantizes to 0 (order unchanged).
-    let scale = |s: f32| {
-        if s > 0.0 && s.is_finite() {
-            65535.0 / s
-        } else {
-            0.0
-        }
-    };
-    let scale = Vec2::new(scale(size.x), scale(size.y));
-    keys.clear();
-    keys.extend(items.iter().enumerate().map(|(i, item)| {
-        // Saturating casts keep the quantized coordinates in 0..=65535.
-        let q = (item.centroid - extent.cmin) * scale;
-        let code = spread(q.x as u32) | (spread(q.y as u32) << 1);
-        (u64::from(code) << 32) | i as u64
-    }));
-    keys.sort_unstable();
-    sorted.clear();
-    sorted.extend(keys.iter().map(|&k| items[k as u32 as usize]));
-    core::mem::swap(items, sorted);
-}
-
-/// Bins per unit of centroid coordinate along an axis of centroid range `size`; 0 for an
-/// empty range, which puts every item in bin 0 (no split on that axis).
-#[inline]
-fn bin_scale(size: f32) -> f32 {
-    if size > 0.0 {
-        SAH_BINS as f32 / size
-    } else {
-        0.0
-    }
-}
-
-/// The SAH bin of a centroid coordinate. Saturating casts keep NaN and overflow in range.
-#[inline]
-fn bin_of(c: f32, lo: f32, scale: f32) -> usize {
-    (((c - lo) * scale) as usize).min(SAH_BINS - 1)
-}
-
-/// Best binned-SAH split of `range` as `(axis, last bin of the left side)`, or `None` when no
-/// split puts items on both sides (all centroids in one bin) or every cost overflows.
-///
-/// Both axes are binned in one pass over the items. Cost of a split:
-/// `half_perimeter(left) * n_left + half_perimeter(right) * n_right`. Ties go to the lower
-/// axis, then the lower bin, so the choice is deterministic.
-fn sah_split(range: &[BuildItem], cmin: Vec2, size: Vec2) -> Option<(usize, usize)> {
-    let scale = [bin_scale(size.x), bin_scale(size.y)];
-    let mut bins = [[Bin {
-        bounds: EMPTY,
-        count: 0,
-    }; SAH_BINS]; 2];
-    for item in range {
-        for axis in 0..2 {
-            let bin = &mut bins[axis][bin_of(item.centroid[axis], cmin[axis], scale[axis])];
-            bin.count += 1;
-            bin.bounds = bin.bounds.min(item.bounds);
-        }
-    }
-
-    let n = range.len() as u32;
-    let mut best = None;
-    let mut best_cost = f32::INFINITY;
-    for (axis, bins) in bins.iter().enumerate() {
-        // right_cost[i]: cost of the right side made of bins i.. (only read when non-empty).
-        let mut right_cost = [0.0f32; SAH_BINS];
-        let (mut acc, mut count) = (EMPTY, 0u32);
-        for i in (1..SAH_BINS).rev() {
-            acc = acc.min(bins[i].bounds);
-            count += bins[i].count;
-            right_cost[i] = half_perimeter(acc) * count as f32;
-        }
-        let (mut acc, mut count) = (EMPTY, 0u32);
-        for i in 0..SAH_BINS - 1 {
-            acc = acc.min(bins[i].bounds);
-            count += bins[i].count;
-            if count == 0 || count == n {
-                continue;
-            }
-            let cost = half_perimeter(acc) * count as f32 + right_cost[i + 1];
-            if cost < best_cost {
-                best_cost = cost;
-                best = Some((axis, i));
-            }
-        }
-    }
-    best
-}
-
-/// Splits `range` at its middle item along the wider centroid axis: both halves get at most
-/// `ceil(n / 2)` items, which is what bounds the tree's depth.
-fn median_split(range: &mut [BuildItem], size: Vec2) -> usize {
-    let mid = range.len() / 2;
-    let axis = if size.y > size.x { 1 } else { 0 };
-    // Identical centroids: any halving is as good, and keeping input order is deterministic.
-    if size[axis] > 0.0 {
-        // Ties broken by input index so the order is a total one.
-        range.select_nth_unstable_by(mid, |a, b| {
-            a.centroid[axis]
-                .total_cmp(&b.centroid[axis])
-                .then(a.input.cmp(&b.input))
-        });
-    }
-    mid
-}
-
-/// Moves the items satisfying `is_left` to the front; returns how many there are and the
-/// extents of both sides. Every item is classified once and added to its side's extent then,
-/// so the children's bounds cost no extra pass.
-fn partition(
-    range: &mut [BuildItem],
-    is_left: impl Fn(&BuildItem) -> bool,
-) -> (usize, Extent, Extent) {
-    let (mut left, mut right) = (Extent::EMPTY, Extent::EMPTY);
-    let (mut i, mut j) = (0, range.len());
-    loop {
-        while i < j && is_left(&range[i]) {
-            left.add(&range[i]);
-            i += 1;
-        }
-        while i < j && !is_left(&range[j - 1]) {
-            right.add(&range[j - 1]);
-            j -= 1;
-        }
-        if i >= j {
-            return (i, left, right);
-        }
-        // range[i] belongs right and range[j - 1] left (so i < j - 1): swap them into place.
-        range.swap(i, j - 1);
-        left.add(&range[i]);
-        right.add(&range[j - 1]);
-        i += 1;
-        j -= 1;
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use glam::Vec2;
 
     /// xorshift32: tiny, seeded and good enough to scatter boxes.
     struct Rng(u32);
@@ -1209,7 +1054,7 @@ mod tests {
         for (i, w) in bvh.wide.iter().enumerate() {
             for lane in 0..4 {
                 let (first, count) = (w.first[lane] as usize, w.count[lane] as usize);
-                if w.min_x[lane] == f32::INFINITY && count == 0 && first == 0 {
+                if Aabb::lane(&w.lanes, lane).x == f32::INFINITY && count == 0 && first == 0 {
                     continue;
                 }
                 if count == 0 {
@@ -1230,12 +1075,7 @@ mod tests {
         let mut in_blocks: Vec<_> = Vec::new();
         for block in &bvh.blocks {
             for lane in 0..4 {
-                let b = Vec4::new(
-                    block.min_x[lane],
-                    block.min_y[lane],
-                    block.neg_max_x[lane],
-                    block.neg_max_y[lane],
-                );
+                let b = Aabb::lane(&block.lanes, lane);
                 let id = block.ids[lane];
                 if b.x == f32::INFINITY {
                     assert_eq!(id, u32::MAX, "an unused lane has no id");
