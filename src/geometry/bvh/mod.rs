@@ -366,7 +366,7 @@ struct Bin<B: TreeBox> {
 /// `Debug` prints a summary (item count, node count, depth, bounds), not every node.
 ///
 /// The boxes are the plane's [`Aabb`] by default: the tree's build and walks are written
-/// over [`TreeBox`], one code for any dimension's boxes.
+/// over a box trait, one code for any dimension's boxes.
 #[derive(Clone)]
 pub struct Bvh<B: TreeBox = Aabb> {
     /// The nodes; `nodes[0]` is the root, children always come after their parent.
