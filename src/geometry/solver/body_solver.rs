@@ -1187,6 +1187,29 @@ mod tests {
         assert!(winners[0] > 0 && winners[1] > 0, "{winners:?}");
     }
 
+    /// `body` through the solver with its parts given as `parts`: the outcome and impacts.
+    fn run_parts(
+        body: &Body,
+        parts: &impl Parts,
+        statics: &StaticSet,
+        settings: &SolveSettings,
+    ) -> (BodyOutcome, Vec<ImpactRecord>) {
+        let mut impacts = Vec::new();
+        let scratch = &mut Vec::new();
+        let out = super::solve(
+            &body.state,
+            parts,
+            statics,
+            &[0],
+            settings,
+            scratch,
+            &mut impacts,
+            &(),
+            None,
+        );
+        (out, impacts)
+    }
+
     /// The one-collider path is the many-part path with one part: the same bits.
     #[test]
     fn the_single_part_path_is_the_many_part_path_with_one_part() {
@@ -1202,43 +1225,14 @@ mod tests {
         );
         body.part.core_radius = 0.025;
         for mode in [Resolution::Clamp, Resolution::SubStep { max_substeps: 4 }] {
-            let run = |parts: &dyn Fn(&mut Vec<u32>, &mut Vec<ImpactRecord>) -> BodyOutcome| {
-                let mut impacts = Vec::new();
-                let out = parts(&mut Vec::new(), &mut impacts);
-                (out, impacts)
-            };
-            let single = run(&|scratch, impacts| {
-                let (candidates, settings) = ([0], settings(mode));
-                let one = Single(&body.part);
-                let args = (&candidates[..], &settings, scratch, impacts);
-                super::solve(
-                    &body.state,
-                    &one,
-                    &statics,
-                    args.0,
-                    args.1,
-                    args.2,
-                    args.3,
-                    &(),
-                    None,
-                )
-            });
-            let many = run(&|scratch, impacts| {
-                let (candidates, settings) = ([0], settings(mode));
-                let one = Many(core::slice::from_ref(&body.part));
-                let args = (&candidates[..], &settings, scratch, impacts);
-                super::solve(
-                    &body.state,
-                    &one,
-                    &statics,
-                    args.0,
-                    args.1,
-                    args.2,
-                    args.3,
-                    &(),
-                    None,
-                )
-            });
+            let settings = settings(mode);
+            let single = run_parts(&body, &Single(&body.part), &statics, &settings);
+            let many = run_parts(
+                &body,
+                &Many(core::slice::from_ref(&body.part)),
+                &statics,
+                &settings,
+            );
             assert!(single.0.impacts > 0, "{mode:?}: the case must hit");
             assert_eq!(single, many, "{mode:?}");
         }
