@@ -32,8 +32,11 @@ pub enum ShapeError {
     TooManyInputPoints,
     /// A polygon more than [`MAX_ASPECT_RATIO`] times longer than it is wide.
     TooThin,
-    /// All points lie on one line: the polygon has no area.
+    /// All points lie on one line: the polygon (or hull) has no area.
     Collinear,
+    /// All points of a hull in space lie in one plane, or within [`MIN_SHAPE_SIZE`] of one:
+    /// the hull has no volume.
+    Coplanar,
     /// The vertices given as counter-clockwise are not a strictly convex counter-clockwise loop.
     NotConvex,
 }
@@ -60,6 +63,7 @@ impl fmt::Display for ShapeError {
                 );
             }
             Self::Collinear => "the points are collinear: the polygon would have no area",
+            Self::Coplanar => "the points are coplanar: the hull would have no volume",
             Self::NotConvex => "the vertices are not a strictly convex counter-clockwise loop",
         };
         f.write_str(text)
