@@ -356,7 +356,7 @@ fn distance_capped(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geometry::d3::test_support::origin_to_triangle;
+    use crate::geometry::d3::test_support::{Rng, origin_to_triangle, unit_cube};
     use glam::{DVec3, Quat};
 
     /// The core distance by brute force in `f64`: 0 when some tetrahedron of the Minkowski
@@ -408,21 +408,6 @@ mod tests {
             }
         }
         best
-    }
-
-    struct Rng(u64);
-
-    impl Rng {
-        fn next(&mut self) -> f32 {
-            self.0 ^= self.0 << 13;
-            self.0 ^= self.0 >> 7;
-            self.0 ^= self.0 << 17;
-            ((self.0 >> 40) as f32 / (1u64 << 24) as f32) * 2.0 - 1.0
-        }
-
-        fn vec(&mut self) -> Vec3 {
-            Vec3::new(self.next(), self.next(), self.next())
-        }
     }
 
     #[test]
@@ -499,9 +484,7 @@ mod tests {
 
     #[test]
     fn an_answer_cut_short_by_the_cap_is_a_pair_of_points_of_the_shapes() {
-        let cube: Vec<Vec3> = (0..8)
-            .map(|i| Vec3::new((i & 1) as f32, ((i >> 1) & 1) as f32, ((i >> 2) & 1) as f32) - 0.5)
-            .collect();
+        let cube = unit_cube();
         let a = ShapeProxy::new(&cube, 0.0).unwrap();
         let input = DistanceInput {
             proxy_a: &a,
@@ -535,9 +518,7 @@ mod tests {
 
     #[test]
     fn overlapping_cores_report_overlap_and_radii_subtract() {
-        let cube: Vec<Vec3> = (0..8)
-            .map(|i| Vec3::new((i & 1) as f32, ((i >> 1) & 1) as f32, ((i >> 2) & 1) as f32) - 0.5)
-            .collect();
+        let cube = unit_cube();
         let a = ShapeProxy::new(&cube, 0.0).unwrap();
         let input = DistanceInput {
             proxy_a: &a,

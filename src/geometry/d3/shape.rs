@@ -4,8 +4,11 @@
 use glam::{Mat3, Quat, Vec3};
 
 use super::hull::{convex_hull, inertia_from_second_moment, solid_moments};
-use crate::geometry::constants::{MAX_HULL_VERTICES, MIN_SHAPE_SIZE};
-use crate::geometry::shape::ShapeError;
+use crate::geometry::constants::MAX_HULL_VERTICES;
+#[cfg(doc)]
+use crate::geometry::constants::MIN_SHAPE_SIZE;
+use crate::geometry::shape::proxy::check_proxy;
+use crate::geometry::shape::{ShapeError, check_finite, check_radius, check_size};
 
 /// A rigid pose in space: a rotation followed by a translation.
 ///
@@ -114,34 +117,6 @@ pub struct MassProperties {
     pub center: Vec3,
     /// Inertia tensor about the centre of mass, in the shape frame's axes (kg m²).
     pub inertia: Mat3,
-}
-
-fn check_finite(v: Vec3) -> Result<Vec3, ShapeError> {
-    if v.is_finite() {
-        Ok(v)
-    } else {
-        Err(ShapeError::NonFinite)
-    }
-}
-
-fn check_size(x: f32) -> Result<f32, ShapeError> {
-    if !x.is_finite() {
-        Err(ShapeError::NonFinite)
-    } else if x < MIN_SHAPE_SIZE {
-        Err(ShapeError::TooSmall)
-    } else {
-        Ok(x)
-    }
-}
-
-fn check_radius(x: f32) -> Result<f32, ShapeError> {
-    if !x.is_finite() {
-        Err(ShapeError::NonFinite)
-    } else if x < 0.0 {
-        Err(ShapeError::TooSmall)
-    } else {
-        Ok(x)
-    }
 }
 
 /// A solid ball centred on the shape origin.
@@ -544,18 +519,7 @@ impl ShapeProxy {
     ///
     /// The points need not be hull corners: the support function only returns corners.
     pub fn new(points: &[Vec3], radius: f32) -> Result<Self, ShapeError> {
-        if points.is_empty() {
-            return Err(ShapeError::TooFewPoints);
-        }
-        if points.len() > MAX_HULL_VERTICES {
-            return Err(ShapeError::TooManyPoints);
-        }
-        if !radius.is_finite() || points.iter().any(|p| !p.is_finite()) {
-            return Err(ShapeError::NonFinite);
-        }
-        if radius < 0.0 {
-            return Err(ShapeError::TooSmall);
-        }
+        check_proxy(points, radius, MAX_HULL_VERTICES)?;
         Ok(Self::from_parts(points, radius))
     }
 
@@ -604,23 +568,7 @@ impl ShapeProxy {
 mod tests {
     use super::*;
     use crate::geometry::constants::MAX_HULL_INPUT_POINTS;
-    use crate::geometry::d3::test_support::origin_to_triangle;
-
-    /// A seeded generator of floats in `[-1, 1)` (xorshift).
-    struct Rng(u64);
-
-    impl Rng {
-        fn next(&mut self) -> f64 {
-            self.0 ^= self.0 << 13;
-            self.0 ^= self.0 >> 7;
-            self.0 ^= self.0 << 17;
-            (self.0 >> 11) as f64 / (1u64 << 52) as f64 - 1.0
-        }
-
-        fn vec(&mut self) -> Vec3 {
-            Vec3::new(self.next() as f32, self.next() as f32, self.next() as f32)
-        }
-    }
+    use crate::geometry::d3::test_support::{Rng, origin_to_triangle};
 
     /// Volume, centre and inertia at unit density of the set `inside`, by sampling its box in
     /// `f64` (an independent reference: no faces, no tetrahedra). Error about 1/sqrt(n).
@@ -635,7 +583,7 @@ mod tests {
         let cell = (hi - lo).x * (hi - lo).y * (hi - lo).z / n as f64;
         let mut hits = Vec::new();
         for _ in 0..n {
-            let u = [rng.next(), rng.next(), rng.next()].map(|x| 0.5 * (x + 1.0));
+            let u = [rng.next_f64(), rng.next_f64(), rng.next_f64()].map(|x| 0.5 * (x + 1.0));
             let p = [0, 1, 2].map(|i| lo[i] + u[i] * (hi[i] - lo[i]));
             if inside(p) {
                 hits.push(p);
@@ -701,7 +649,7 @@ mod tests {
         let mut rng = Rng(7);
         let mut points: Vec<Vec3> = cuboid_corners(h).to_vec();
         // Inner points and points on faces and edges are dropped.
-        points.extend((0..40).map(|_| rng.vec() * h * 0.99));
+        points.extend((0..40).map(|_| rng.vec_f64() * h * 0.99));
         points.push(Vec3::new(h.x, 0.0, 0.0));
         points.push(Vec3::new(h.x, h.y, 0.0));
         points.rotate_left(13);
@@ -747,16 +695,16 @@ mod tests {
     fn random_hulls_hold_their_cloud_and_match_a_sampled_mass() {
         let mut rng = Rng(0xC0FFEE);
         for case in 0..12 {
-            let offset = rng.vec() * 20.0;
+            let offset = rng.vec_f64() * 20.0;
             let count = 4 + case * 2;
             let points: Vec<Vec3> = (0..count)
-                .map(|_| offset + rng.vec() * Vec3::new(1.0, 0.6, 0.3))
+                .map(|_| offset + rng.vec_f64() * Vec3::new(1.0, 0.6, 0.3))
                 .collect();
             let hull = ConvexHull::new(&points, 0.0).unwrap();
             let (corners, triangles) = convex_hull(&points).unwrap();
             // Every input point is inside or on the hull (support along 200 directions).
             for _ in 0..200 {
-                let d = rng.vec().normalize();
+                let d = rng.vec_f64().normalize();
                 let outer = hull
                     .vertices()
                     .iter()
@@ -831,7 +779,7 @@ mod tests {
         for (case, r) in [0.05_f32, 0.2, 0.6].into_iter().enumerate() {
             let offset = Vec3::new(30.0, -12.0, 7.0);
             let points: Vec<Vec3> = (0..6 + 4 * case)
-                .map(|_| offset + rng.vec() * Vec3::new(1.0, 0.7, 0.4))
+                .map(|_| offset + rng.vec_f64() * Vec3::new(1.0, 0.7, 0.4))
                 .collect();
             let hull = ConvexHull::new(&points, r).unwrap();
             let (corners, triangles) = convex_hull(&points).unwrap();

@@ -158,7 +158,8 @@ pub struct MassProperties {
     pub inertia: f32,
 }
 
-fn check_finite(v: Vec2) -> Result<Vec2, ShapeError> {
+/// `v`, or [`ShapeError::NonFinite`] (in either dimension).
+pub(crate) fn check_finite<V: crate::geometry::dim::Vector>(v: V) -> Result<V, ShapeError> {
     if v.is_finite() {
         Ok(v)
     } else {
@@ -166,7 +167,8 @@ fn check_finite(v: Vec2) -> Result<Vec2, ShapeError> {
     }
 }
 
-fn check_size(x: f32) -> Result<f32, ShapeError> {
+/// `x`, or why it is no size: non-finite or below [`MIN_SHAPE_SIZE`].
+pub(crate) fn check_size(x: f32) -> Result<f32, ShapeError> {
     if !x.is_finite() {
         Err(ShapeError::NonFinite)
     } else if x < MIN_SHAPE_SIZE {
@@ -176,7 +178,8 @@ fn check_size(x: f32) -> Result<f32, ShapeError> {
     }
 }
 
-fn check_radius(x: f32) -> Result<f32, ShapeError> {
+/// `x`, or why it is no rounding radius: non-finite or negative.
+pub(crate) fn check_radius(x: f32) -> Result<f32, ShapeError> {
     if !x.is_finite() {
         Err(ShapeError::NonFinite)
     } else if x < 0.0 {
