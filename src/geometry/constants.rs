@@ -17,12 +17,26 @@ pub const LINEAR_SLOP: f32 = 0.005;
 /// and slows support searches; eight covers boxes, octagons and the oracle cases.
 pub const MAX_POLYGON_VERTICES: usize = 8;
 
+/// The largest number of corners of a convex hull in space (and so of a 3D support-map proxy).
+///
+/// Proxies store their points inline (12 bytes each) and GJK's support is a scan of them:
+/// 32 covers boxes, hulls of 4 to 32 points and a modest rounded mesh; raising it grows every
+/// 3D proxy and slows its supports.
+pub const MAX_HULL_VERTICES: usize = 32;
+
 /// The largest number of GJK iterations before the closest features are accepted as they are.
 ///
 /// GJK in 2D on polygons of at most [`MAX_POLYGON_VERTICES`] vertices terminates in far fewer
 /// (each iteration adds a support point not yet in the simplex); the cap only guards against
 /// cycling on degenerate input.
 pub const GJK_MAX_ITERATIONS: u32 = 20;
+
+/// The largest number of GJK iterations in space before the closest features are accepted.
+///
+/// Each iteration but the last adds a new support point and brings the simplex nearer the
+/// origin; pairs of hulls of [`MAX_HULL_VERTICES`] corners end in far fewer. The cap only
+/// guards against rounding making two faces of a round hull take turns.
+pub const GJK_MAX_ITERATIONS_3D: u32 = 48;
 
 /// The largest number of outer (advance) iterations of the time of impact before it reports
 /// `Failed`.
@@ -128,8 +142,9 @@ pub const HULL_RELATIVE_TOLERANCE: f32 = 1.0e-6;
 /// times away. A 1 km long, 1 cm thick wall is at half the limit.
 pub const MAX_ASPECT_RATIO: f32 = 2.0e5;
 
-/// The most points [`Polygon::from_points`](super::Polygon::from_points) takes; a larger
-/// cloud is refused before any work.
+/// The most points [`Polygon::from_points`](super::Polygon::from_points) and
+/// [`d3::ConvexHull::new`](super::d3::ConvexHull::new) take; a larger cloud is refused before
+/// any work.
 ///
 /// Welding near-duplicates compares a point with the kept points near it, up to all of them:
 /// 1,024 points bound that to half a million distance checks (well under a millisecond). The

@@ -16,7 +16,7 @@
 use core::fmt::Debug;
 use core::ops::{Add, AddAssign, Div, Mul, Neg, Sub, SubAssign};
 
-use glam::Vec2;
+use glam::{Vec2, Vec3};
 
 /// The vector arithmetic the shared algorithms do, in either dimension: each method is the
 /// glam method of the same name (the same operations in the same order, hence the same bits).
@@ -166,6 +166,20 @@ impl Vector for Vec2 {
     fn cross_length_squared(self, other: Self) -> f32 {
         let c = super::math::cross(self, other);
         c * c
+    }
+}
+
+impl Vector for Vec3 {
+    const ZERO: Self = Vec3::ZERO;
+    const X: Self = Vec3::X;
+    forward_vector!(Vec3);
+    #[inline(always)]
+    fn l1(self) -> f32 {
+        self.x.abs() + self.y.abs() + self.z.abs()
+    }
+    #[inline(always)]
+    fn cross_length_squared(self, other: Self) -> f32 {
+        self.cross(other).length_squared()
     }
 }
 

@@ -11,6 +11,7 @@
 
 mod bvh;
 pub mod constants;
+pub mod d3;
 pub(crate) mod dim;
 mod math;
 pub(crate) mod query;

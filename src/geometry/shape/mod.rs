@@ -32,8 +32,11 @@ pub enum ShapeError {
     TooManyInputPoints,
     /// A polygon more than [`MAX_ASPECT_RATIO`] times longer than it is wide.
     TooThin,
-    /// All points lie on one line: the polygon has no area.
+    /// All points lie on one line: the polygon (or hull) has no area.
     Collinear,
+    /// All points of a hull in space lie in one plane, or within [`MIN_SHAPE_SIZE`] of one:
+    /// the hull has no volume.
+    Coplanar,
     /// The vertices given as counter-clockwise are not a strictly convex counter-clockwise loop.
     NotConvex,
 }
@@ -60,6 +63,7 @@ impl fmt::Display for ShapeError {
                 );
             }
             Self::Collinear => "the points are collinear: the polygon would have no area",
+            Self::Coplanar => "the points are coplanar: the hull would have no volume",
             Self::NotConvex => "the vertices are not a strictly convex counter-clockwise loop",
         };
         f.write_str(text)
@@ -154,7 +158,8 @@ pub struct MassProperties {
     pub inertia: f32,
 }
 
-fn check_finite(v: Vec2) -> Result<Vec2, ShapeError> {
+/// `v`, or [`ShapeError::NonFinite`] (in either dimension).
+pub(crate) fn check_finite<V: crate::geometry::dim::Vector>(v: V) -> Result<V, ShapeError> {
     if v.is_finite() {
         Ok(v)
     } else {
@@ -162,7 +167,8 @@ fn check_finite(v: Vec2) -> Result<Vec2, ShapeError> {
     }
 }
 
-fn check_size(x: f32) -> Result<f32, ShapeError> {
+/// `x`, or why it is no size: non-finite or below [`MIN_SHAPE_SIZE`].
+pub(crate) fn check_size(x: f32) -> Result<f32, ShapeError> {
     if !x.is_finite() {
         Err(ShapeError::NonFinite)
     } else if x < MIN_SHAPE_SIZE {
@@ -172,7 +178,8 @@ fn check_size(x: f32) -> Result<f32, ShapeError> {
     }
 }
 
-fn check_radius(x: f32) -> Result<f32, ShapeError> {
+/// `x`, or why it is no rounding radius: non-finite or negative.
+pub(crate) fn check_radius(x: f32) -> Result<f32, ShapeError> {
     if !x.is_finite() {
         Err(ShapeError::NonFinite)
     } else if x < 0.0 {

@@ -39,18 +39,7 @@ impl ShapeProxy {
     /// The points need not be in any order nor be hull vertices: the support function only
     /// ever returns hull vertices.
     pub fn new(points: &[Vec2], radius: f32) -> Result<Self, ShapeError> {
-        if points.is_empty() {
-            return Err(ShapeError::TooFewPoints);
-        }
-        if points.len() > MAX_POLYGON_VERTICES {
-            return Err(ShapeError::TooManyPoints);
-        }
-        if !radius.is_finite() || points.iter().any(|p| !p.is_finite()) {
-            return Err(ShapeError::NonFinite);
-        }
-        if radius < 0.0 {
-            return Err(ShapeError::TooSmall);
-        }
+        check_proxy(points, radius, MAX_POLYGON_VERTICES)?;
         Ok(Self::from_parts(points, radius))
     }
 
@@ -204,6 +193,28 @@ impl ShapeProxy {
     pub fn is_finite(&self) -> bool {
         self.radius.is_finite() && self.points().iter().all(|p| p.is_finite())
     }
+}
+
+/// Why `points` and `radius` make no proxy of at most `max` points, if they do not (either
+/// dimension): none or too many points, a non-finite value, a negative radius.
+pub(crate) fn check_proxy<V: Vector>(
+    points: &[V],
+    radius: f32,
+    max: usize,
+) -> Result<(), ShapeError> {
+    if points.is_empty() {
+        return Err(ShapeError::TooFewPoints);
+    }
+    if points.len() > max {
+        return Err(ShapeError::TooManyPoints);
+    }
+    if !radius.is_finite() || points.iter().any(|p| !p.is_finite()) {
+        return Err(ShapeError::NonFinite);
+    }
+    if radius < 0.0 {
+        return Err(ShapeError::TooSmall);
+    }
+    Ok(())
 }
 
 /// The index of the point of `points` (not empty) farthest along `direction`, the first one
