@@ -504,6 +504,123 @@ fn casts_see_movers_where_they_are_and_moving_them_rebuilds_nothing() {
     assert!(gap(&app, ball, other) >= -SLOP);
 }
 
+/// The sensor crossings of each step, with the step they came at ([`Log`]'s count).
+#[derive(Resource, Default)]
+struct Crossings(Vec<(usize, CcdSensorCrossing)>);
+
+fn collect_crossings(
+    mut reader: MessageReader<CcdSensorCrossing>,
+    log: Res<Log>,
+    mut out: ResMut<Crossings>,
+) {
+    out.0.extend(reader.read().map(|c| (log.steps, *c)));
+}
+
+/// [`driven_app`] logging the sensor crossings, and a moving sensor 10 cm thick, 2 m tall,
+/// driven along x from `from` at `speed` (m/s).
+fn sensor_app(mode: Resolution, from: Vec2, speed: f32) -> (App, Entity) {
+    let mut app = driven_app(mode, Vec2::ZERO);
+    app.init_resource::<Crossings>().add_systems(
+        bevy_app::FixedPostUpdate,
+        collect_crossings.after(CcdSystems::Step),
+    );
+    let sensor = spawn_mover(
+        &mut app,
+        Collider::rectangle(0.05, 1.0).unwrap(),
+        Drive::Line {
+            from,
+            velocity: Vec2::new(speed, 0.0),
+            angle: 0.0,
+            spin: 0.0,
+        },
+    );
+    app.world_mut().entity_mut(sensor).insert(Sensor);
+    (app, sensor)
+}
+
+/// Entered and exited once each, at step 1, at the fractions `enter` and `exit` within `band`,
+/// and nothing at the steps after.
+fn assert_crossed_once(
+    app: &App,
+    body: Entity,
+    sensor: Entity,
+    (enter, exit, band): (f32, f32, f32),
+) {
+    let crossings = &app.world().resource::<Crossings>().0;
+    let kinds: Vec<_> = crossings
+        .iter()
+        .map(|(step, c)| (*step, c.body, c.sensor, c.entered))
+        .collect();
+    assert_eq!(
+        kinds,
+        [(1, body, sensor, true), (1, body, sensor, false)],
+        "{crossings:?}"
+    );
+    for (c, expected) in crossings.iter().zip([enter, exit]) {
+        assert!(
+            (c.1.fraction - expected).abs() <= band,
+            "{} vs {expected} ± {band}",
+            c.1.fraction
+        );
+    }
+}
+
+/// A sensor sweeping 4 m in one step over a disc at rest reports it entering where its face
+/// reaches the disc and leaving where its back does (closed forms, within a quarter slop of
+/// the sensor's travel), in both modes; teleported from pose to pose it would report nothing.
+#[test]
+fn a_moving_sensor_passing_over_a_resting_body_reports_it_once() {
+    let origin = Vec2::new(-700.0, 300.0);
+    let (h, r, travel) = (0.05f32, 0.1f32, 4.0f32);
+    let speed = travel / DT as f32;
+    let band = (TOL + ROUND) / travel;
+    let expected = ((2.0 - h - r) / travel, (2.0 + h + r) / travel, band);
+    for mode in MODES {
+        let (mut app, sensor) = sensor_app(mode, origin - Vec2::new(2.0, 0.0), speed);
+        let disc = spawn_ball(&mut app, r, origin, Vec2::ZERO, ());
+        for _ in 0..3 {
+            step(&mut app);
+        }
+        assert_crossed_once(&app, disc, sensor, expected);
+        assert_eq!(
+            position(&app, disc),
+            origin,
+            "{mode:?}: a sensor moved the body"
+        );
+    }
+}
+
+/// A body and a sensor closing on each other at 120 m/s each, 4 m apart: they meet where both
+/// have covered half the gap, and part where both have covered half of it and the overlap
+/// (closed forms, within a quarter slop of their relative travel); with the sensor still at
+/// its end pose the body would start the step inside it and report one exit.
+#[test]
+fn a_body_and_a_sensor_moving_towards_each_other_cross_once() {
+    let origin = Vec2::new(500.0, 800.0);
+    let (h, r, travel) = (0.05f32, 0.1f32, 2.0f32);
+    let speed = travel / DT as f32;
+    let band = (TOL + ROUND) / (2.0 * travel);
+    let expected = (
+        (2.0 - h - r) / (2.0 * travel),
+        (2.0 + h + r) / (2.0 * travel),
+        band,
+    );
+    for mode in MODES {
+        let (mut app, sensor) = sensor_app(mode, origin + Vec2::new(1.0, 0.0), -speed);
+        let body = spawn_ball(
+            &mut app,
+            r,
+            origin - Vec2::new(1.0, 0.0),
+            Vec2::new(speed, 0.0),
+            (),
+        );
+        for _ in 0..3 {
+            step(&mut app);
+        }
+        assert_crossed_once(&app, body, sensor, expected);
+    }
+}
+
 /// The arena's box, 12 movers (6 walls swinging at up to 30 m/s, 6 blades at 2-20 turns/s),
 /// each with 3 m of room from anything else so that no squeeze is forced, and bodies at
 /// 10-2,000 m/s that start clear of the movers' whole paths.

@@ -231,7 +231,7 @@ pub struct StaticCollider;
 /// marker is removed is a static from the next rebuild. A mover whose pose is not finite,
 /// has no planar world pose or reaches past the coordinate limit is left out (with a
 /// warning) until its pose is good again; nothing else is affected. A [`Sensor`](super::Sensor)
-/// with it is not swept (it is teleported, as a static sensor is).
+/// with it is swept the same way: its crossings are found along both motions.
 ///
 /// ```
 /// use bevy_ccd::prelude::*;
