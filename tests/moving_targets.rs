@@ -114,6 +114,19 @@ fn spawn_mover(app: &mut App, collider: Collider, drive: Drive) -> Entity {
         .id()
 }
 
+/// A 0.6 m box at rest at `at` that does not bounce (restitution 0).
+fn spawn_crate(app: &mut App, at: Vec2) -> Entity {
+    app.world_mut()
+        .spawn((
+            Collider::rectangle(0.3, 0.3).unwrap(),
+            CcdEnabled::default(),
+            Velocity::default(),
+            Restitution(0.0),
+            Transform::from_xyz(at.x, at.y, 0.0),
+        ))
+        .id()
+}
+
 /// The surface separation (m) of two entities' colliders at their world poses now (roots).
 fn gap(app: &App, a: Entity, b: Entity) -> f32 {
     let world = app.world();
@@ -247,16 +260,7 @@ fn an_elevator_at_50_m_s_carries_a_resting_body() {
                 spin: 0.0,
             },
         );
-        let body = app
-            .world_mut()
-            .spawn((
-                Collider::rectangle(0.3, 0.3).unwrap(),
-                CcdEnabled::default(),
-                Velocity::default(),
-                Restitution(0.0),
-                Transform::from_xyz(10.0, 0.3, 0.0),
-            ))
-            .id();
+        let body = spawn_crate(&mut app, Vec2::new(10.0, 0.3));
         for k in 0..120 {
             step(&mut app);
             let g = gap(&app, body, elevator);
@@ -504,6 +508,123 @@ fn casts_see_movers_where_they_are_and_moving_them_rebuilds_nothing() {
     assert!(gap(&app, ball, other) >= -SLOP);
 }
 
+/// The sensor crossings of each step, with the step they came at ([`Log`]'s count).
+#[derive(Resource, Default)]
+struct Crossings(Vec<(usize, CcdSensorCrossing)>);
+
+fn collect_crossings(
+    mut reader: MessageReader<CcdSensorCrossing>,
+    log: Res<Log>,
+    mut out: ResMut<Crossings>,
+) {
+    out.0.extend(reader.read().map(|c| (log.steps, *c)));
+}
+
+/// [`driven_app`] logging the sensor crossings, and a moving sensor 10 cm thick, 2 m tall,
+/// driven along x from `from` at `speed` (m/s).
+fn sensor_app(mode: Resolution, from: Vec2, speed: f32) -> (App, Entity) {
+    let mut app = driven_app(mode, Vec2::ZERO);
+    app.init_resource::<Crossings>().add_systems(
+        bevy_app::FixedPostUpdate,
+        collect_crossings.after(CcdSystems::Step),
+    );
+    let sensor = spawn_mover(
+        &mut app,
+        Collider::rectangle(0.05, 1.0).unwrap(),
+        Drive::Line {
+            from,
+            velocity: Vec2::new(speed, 0.0),
+            angle: 0.0,
+            spin: 0.0,
+        },
+    );
+    app.world_mut().entity_mut(sensor).insert(Sensor);
+    (app, sensor)
+}
+
+/// Entered and exited once each, at step 1, at the fractions `enter` and `exit` within `band`,
+/// and nothing at the steps after.
+fn assert_crossed_once(
+    app: &App,
+    body: Entity,
+    sensor: Entity,
+    (enter, exit, band): (f32, f32, f32),
+) {
+    let crossings = &app.world().resource::<Crossings>().0;
+    let kinds: Vec<_> = crossings
+        .iter()
+        .map(|(step, c)| (*step, c.body, c.sensor, c.entered))
+        .collect();
+    assert_eq!(
+        kinds,
+        [(1, body, sensor, true), (1, body, sensor, false)],
+        "{crossings:?}"
+    );
+    for (c, expected) in crossings.iter().zip([enter, exit]) {
+        assert!(
+            (c.1.fraction - expected).abs() <= band,
+            "{} vs {expected} ± {band}",
+            c.1.fraction
+        );
+    }
+}
+
+/// A sensor sweeping 4 m in one step over a disc at rest reports it entering where its face
+/// reaches the disc and leaving where its back does (closed forms, within a quarter slop of
+/// the sensor's travel), in both modes; teleported from pose to pose it would report nothing.
+#[test]
+fn a_moving_sensor_passing_over_a_resting_body_reports_it_once() {
+    let origin = Vec2::new(-700.0, 300.0);
+    let (h, r, travel) = (0.05f32, 0.1f32, 4.0f32);
+    let speed = travel / DT as f32;
+    let band = (TOL + ROUND) / travel;
+    let expected = ((2.0 - h - r) / travel, (2.0 + h + r) / travel, band);
+    for mode in MODES {
+        let (mut app, sensor) = sensor_app(mode, origin - Vec2::new(2.0, 0.0), speed);
+        let disc = spawn_ball(&mut app, r, origin, Vec2::ZERO, ());
+        for _ in 0..3 {
+            step(&mut app);
+        }
+        assert_crossed_once(&app, disc, sensor, expected);
+        assert_eq!(
+            position(&app, disc),
+            origin,
+            "{mode:?}: a sensor moved the body"
+        );
+    }
+}
+
+/// A body and a sensor closing on each other at 120 m/s each, 4 m apart: they meet where both
+/// have covered half the gap, and part where both have covered half of it and the overlap
+/// (closed forms, within a quarter slop of their relative travel); with the sensor still at
+/// its end pose the body would start the step inside it and report one exit.
+#[test]
+fn a_body_and_a_sensor_moving_towards_each_other_cross_once() {
+    let origin = Vec2::new(500.0, 800.0);
+    let (h, r, travel) = (0.05f32, 0.1f32, 2.0f32);
+    let speed = travel / DT as f32;
+    let band = (TOL + ROUND) / (2.0 * travel);
+    let expected = (
+        (2.0 - h - r) / (2.0 * travel),
+        (2.0 + h + r) / (2.0 * travel),
+        band,
+    );
+    for mode in MODES {
+        let (mut app, sensor) = sensor_app(mode, origin + Vec2::new(1.0, 0.0), -speed);
+        let body = spawn_ball(
+            &mut app,
+            r,
+            origin - Vec2::new(1.0, 0.0),
+            Vec2::new(speed, 0.0),
+            (),
+        );
+        for _ in 0..3 {
+            step(&mut app);
+        }
+        assert_crossed_once(&app, body, sensor, expected);
+    }
+}
+
 /// The arena's box, 12 movers (6 walls swinging at up to 30 m/s, 6 blades at 2-20 turns/s),
 /// each with 3 m of room from anything else so that no squeeze is forced, and bodies at
 /// 10-2,000 m/s that start clear of the movers' whole paths.
@@ -629,29 +750,32 @@ fn the_arena_of_movers_keeps_every_body_in_and_out_of_the_movers() {
     }
 }
 
-/// Determinism: the arena of movers gives the same bits on one thread and two.
+/// Determinism: the arena of movers gives the same pose bits and the same impact messages in
+/// the same order on one thread and two, in both modes.
 #[test]
 fn the_arena_of_movers_is_the_same_on_one_thread_and_two() {
     bevy_tasks::ComputeTaskPool::get_or_init(|| {
         bevy_tasks::TaskPoolBuilder::new().num_threads(2).build()
     });
-    let run = |parallel: bool| {
-        let (mut app, bodies, _) = mover_arena(Resolution::default(), 1000, parallel, None);
-        for _ in 0..150 {
-            step(&mut app);
-        }
-        let messages: Vec<CcdImpact> = app
-            .world()
-            .resource::<Log>()
-            .impacts
-            .iter()
-            .map(|(_, m)| *m)
-            .collect();
-        (poses(&app, &bodies), messages)
-    };
-    let (serial, two) = (run(false), run(true));
-    assert!(!serial.1.is_empty());
-    assert!(serial == two, "one thread and two differ");
+    for mode in MODES {
+        let run = |parallel: bool| {
+            let (mut app, bodies, _) = mover_arena(mode, 1000, parallel, None);
+            for _ in 0..150 {
+                step(&mut app);
+            }
+            let messages: Vec<CcdImpact> = app
+                .world()
+                .resource::<Log>()
+                .impacts
+                .iter()
+                .map(|(_, m)| *m)
+                .collect();
+            (poses(&app, &bodies), messages)
+        };
+        let (serial, two) = (run(false), run(true));
+        assert!(!serial.1.is_empty());
+        assert!(serial == two, "{mode:?}: one thread and two differ");
+    }
 }
 
 /// The same arena with the movers children of a level root that swings 0.5 m either way and
@@ -667,5 +791,257 @@ fn the_arena_of_movers_under_a_moving_rotating_root_keeps_every_body_in() {
     };
     for mode in MODES {
         let _ = contained_for_600_steps(mover_arena(mode, 1000, true, Some(root)), mode);
+    }
+}
+
+/// Inserts (`true`) or removes [`MovingTarget`] on an entity during the user's movement of
+/// step `.0` (after the step's start was recorded).
+#[derive(Component, Clone, Copy, Debug)]
+struct ToggleAt(u32, bool);
+
+fn toggle_mid_step(mut commands: Commands, clock: Res<Clock>, toggled: Query<(Entity, &ToggleAt)>) {
+    for (entity, &ToggleAt(at, on)) in &toggled {
+        if clock.0 == at {
+            if on {
+                commands.entity(entity).insert(MovingTarget);
+            } else {
+                commands.entity(entity).remove::<MovingTarget>();
+            }
+        }
+    }
+}
+
+/// A wall driven at 30 m/s at a ball flying at it at 60 m/s (a [`MovingTarget`] from the
+/// start unless `toggle` says when it gains or loses the marker), and a ball bouncing between
+/// two walls elsewhere: the app, the wall, the ball and the other ball.
+fn toggled_app(toggle: Option<ToggleAt>) -> (App, Entity, Entity, Entity) {
+    let mut app = driven_app(Resolution::default(), Vec2::ZERO);
+    app.add_systems(bevy_app::FixedUpdate, toggle_mid_step.after(drive));
+    let wall = app
+        .world_mut()
+        .spawn((
+            Collider::rectangle(0.05, 1.0).unwrap(),
+            StaticCollider,
+            Drive::Line {
+                from: Vec2::new(2.0, 0.0),
+                velocity: Vec2::new(-30.0, 0.0),
+                angle: 0.0,
+                spin: 0.0,
+            },
+            Velocity::default(),
+            Transform::from_xyz(2.0, 0.0, 0.0),
+        ))
+        .id();
+    match toggle {
+        Some(t @ ToggleAt(_, true)) => drop(app.world_mut().entity_mut(wall).insert(t)),
+        Some(t) => drop(app.world_mut().entity_mut(wall).insert((t, MovingTarget))),
+        None => drop(app.world_mut().entity_mut(wall).insert(MovingTarget)),
+    }
+    let ball = spawn_ball(&mut app, 0.1, Vec2::ZERO, Vec2::new(60.0, 0.0), ());
+    let room = Vec2::new(200.0, 0.0);
+    spawn_wall(&mut app, room + Vec2::new(3.0, 0.0), 0.05, 3.0);
+    spawn_wall(&mut app, room - Vec2::new(3.0, 0.0), 0.05, 3.0);
+    let other = spawn_ball(&mut app, 0.1, room, Vec2::new(250.0, 0.0), ());
+    (app, wall, ball, other)
+}
+
+/// A target given [`MovingTarget`] during a step stands at its end pose that step and is swept
+/// from the next: the ball flying at it is never inside it. One that loses the marker during
+/// a step is a static from then on: moving it rebuilds the hierarchy (a teleport). Neither
+/// panics, and the ball elsewhere is bit for bit as when the wall moves from the start.
+#[test]
+fn a_target_given_or_losing_its_opt_in_mid_step_harms_no_one() {
+    let other_bits = |app: &App, other: Entity| {
+        support::app::transform_bits(app.world().get::<Transform>(other).unwrap())
+    };
+    let (mut control, _, _, other) = toggled_app(None);
+    for _ in 0..8 {
+        step(&mut control);
+    }
+    let expected = other_bits(&control, other);
+    // Gained at the first step, before the wall reaches the ball's path.
+    let (mut app, wall, ball, other) = toggled_app(Some(ToggleAt(1, true)));
+    for k in 0..8 {
+        step(&mut app);
+        let (wall_x, ball_x) = (position(&app, wall).x, position(&app, ball).x);
+        assert!(
+            ball_x + 0.1 <= wall_x - 0.05 + SLOP,
+            "step {k}: ball at {ball_x}, wall at {wall_x}"
+        );
+    }
+    assert!(toi(&app, ball).impacts() > 0 || velocity(&app, ball).linear.x < 0.0);
+    assert_eq!(other_bits(&app, other), expected);
+    // Lost at the third step: from then on each move is a rebuild.
+    let (mut app, _, _, other) = toggled_app(Some(ToggleAt(3, false)));
+    let rebuilds = |app: &App| app.world().resource::<CcdDiagnostics>().static_rebuilds;
+    for _ in 0..3 {
+        step(&mut app);
+    }
+    let before = rebuilds(&app);
+    for _ in 3..8 {
+        step(&mut app);
+    }
+    assert_eq!(
+        rebuilds(&app),
+        before + 5,
+        "moving a static rebuilds every step"
+    );
+    assert_eq!(other_bits(&app, other), expected);
+}
+
+/// A moving target that does not move over a step (its pose and velocity unchanged: a
+/// zero-length motion) is a still target that step: a box riding a platform rising at 0.5 m/s
+/// that stops stays on it (thrown up by at most `v² / 2g`, 1.3 cm) and comes to rest, with no
+/// error; and a step of zero length (`timestep` 0) is a
+/// configuration error on every body, which stays where it was, with no panic.
+#[test]
+fn a_moving_target_with_a_zero_length_step_stands_still() {
+    for mode in MODES {
+        let mut app = driven_app(mode, G);
+        let platform = spawn_mover(
+            &mut app,
+            Collider::rectangle(2.0, 0.1).unwrap(),
+            Drive::Until(10, Vec2::new(0.0, -0.1 - SLOP), Vec2::new(0.0, 0.5)),
+        );
+        let body = spawn_crate(&mut app, Vec2::new(0.0, 0.3));
+        for k in 0..40 {
+            step(&mut app);
+            let g = gap(&app, body, platform);
+            assert!((-SLOP..=0.05).contains(&g), "{mode:?}, step {k}: gap {g}");
+            assert!(toi(&app, body).error().is_none(), "{mode:?}, step {k}");
+        }
+        assert!(velocity(&app, body).linear.length() < 0.5, "{mode:?}");
+        let at = position(&app, body);
+        app.world_mut().resource_mut::<CcdConfig>().timestep = Some(0.0);
+        step(&mut app);
+        assert!(toi(&app, body).error().is_some(), "{mode:?}");
+        assert!(position(&app, body).is_finite() && position(&app, platform).is_finite());
+        assert!(position(&app, body).distance(at) < 1.0, "{mode:?}");
+    }
+}
+
+/// A mover spawned during a step stands at its end pose that step and is swept from the next;
+/// one re-parented during a step is swept from its world pose at the step's start to its
+/// world pose under its new parent: a ball in between is struck (the mover's motion, not a
+/// teleport past it) and never left inside.
+#[test]
+fn a_mover_spawned_or_reparented_during_a_step_is_swept_from_where_it_was() {
+    #[derive(Resource)]
+    struct Reparent(Entity, Entity);
+    fn reparent(mut commands: Commands, clock: Res<Clock>, what: Option<Res<Reparent>>) {
+        match (clock.0, what) {
+            // Spawned during the step, far from everything: no panic, nothing struck.
+            (2, _) => drop(commands.spawn((
+                Collider::rectangle(0.05, 1.0).unwrap(),
+                StaticCollider,
+                MovingTarget,
+                Transform::from_xyz(50.0, 0.0, 0.0),
+            ))),
+            (3, Some(what)) => drop(commands.entity(what.0).insert(ChildOf(what.1))),
+            _ => {}
+        }
+    }
+    for mode in MODES {
+        let mut app = driven_app(mode, Vec2::ZERO);
+        app.add_systems(bevy_app::FixedUpdate, reparent.after(drive));
+        let (left, right) = (
+            app.world_mut()
+                .spawn(Transform::from_xyz(-1.0, 0.0, 0.0))
+                .id(),
+            app.world_mut()
+                .spawn(Transform::from_xyz(1.0, 0.0, 0.0))
+                .id(),
+        );
+        let mover = app
+            .world_mut()
+            .spawn((
+                Collider::rectangle(0.05, 1.0).unwrap(),
+                StaticCollider,
+                MovingTarget,
+                Transform::default(),
+                ChildOf(left),
+            ))
+            .id();
+        app.insert_resource(Reparent(mover, right));
+        let ball = spawn_ball(&mut app, 0.1, Vec2::new(-0.5, 0.0), Vec2::ZERO, ());
+        // The mover's world x: its parent's (neither turns) plus its own.
+        let mover_x = |app: &App| {
+            let parent = app.world().get::<ChildOf>(mover).unwrap().parent();
+            position(app, parent).x + position(app, mover).x
+        };
+        for k in 0..6 {
+            step(&mut app);
+            let (ball_x, face) = (position(&app, ball).x, mover_x(&app) + 0.05);
+            assert!(
+                ball_x - 0.1 >= face - SLOP,
+                "{mode:?}, step {k}: ball at {ball_x}, the mover's face at {face}"
+            );
+        }
+        assert!(mover_x(&app) > 0.9, "{mode:?}");
+        assert!(
+            impacts_at(&app, 3).iter().any(|i| i.target == mover),
+            "{mode:?}: the re-parented mover did not strike the ball"
+        );
+        assert!(velocity(&app, ball).linear.x > 0.0, "{mode:?}");
+    }
+}
+
+/// A compound mover: a moving root with two child colliders (bars 2 m apart) sliding at 60
+/// m/s at two resting balls, one in front of each bar: each is struck by its own bar, the
+/// impact naming the root as target and the bar as its collider, and neither is left inside.
+#[test]
+fn a_compound_mover_strikes_with_each_of_its_parts() {
+    for mode in MODES {
+        let mut app = driven_app(mode, Vec2::ZERO);
+        let root = app
+            .world_mut()
+            .spawn((
+                StaticCollider,
+                MovingTarget,
+                Drive::Line {
+                    from: Vec2::new(-2.0, 0.0),
+                    velocity: Vec2::new(60.0, 0.0),
+                    angle: 0.0,
+                    spin: 0.0,
+                },
+                Velocity::default(),
+                Transform::from_xyz(-2.0, 0.0, 0.0),
+            ))
+            .id();
+        let bars: Vec<Entity> = [-1.0f32, 1.0]
+            .into_iter()
+            .map(|y| {
+                app.world_mut()
+                    .spawn((
+                        Collider::rectangle(0.05, 0.4).unwrap(),
+                        Transform::from_xyz(0.0, y, 0.0),
+                        ChildOf(root),
+                    ))
+                    .id()
+            })
+            .collect();
+        let balls: Vec<Entity> = [(-1.0f32, 0.3f32), (1.0, 0.6)]
+            .into_iter()
+            .map(|(y, x)| spawn_ball(&mut app, 0.1, Vec2::new(x, y), Vec2::ZERO, ()))
+            .collect();
+        for k in 0..4 {
+            step(&mut app);
+            let face = position(&app, root).x + 0.05;
+            for &ball in &balls {
+                let x = position(&app, ball).x;
+                assert!(
+                    x - 0.1 >= face - SLOP,
+                    "{mode:?}, step {k}: {x} vs face {face}"
+                );
+            }
+        }
+        let log = &app.world().resource::<Log>().impacts;
+        for (&ball, &bar) in balls.iter().zip(&bars) {
+            assert!(
+                log.iter()
+                    .any(|(_, i)| i.body == ball && i.target == root && i.target_collider == bar),
+                "{mode:?}: {ball} not struck by {bar}: {log:?}"
+            );
+        }
     }
 }

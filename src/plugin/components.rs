@@ -228,10 +228,12 @@ pub struct StaticCollider;
 /// A body it catches against another target is left where it was struck, with the outcome
 /// [`CcdError::Squeezed`](super::CcdError::Squeezed). A mover added during a step (or given
 /// this marker then) stands at its end pose that step and is swept from the next; one whose
-/// marker is removed is a static from the next rebuild. A mover whose pose is not finite,
+/// marker is removed is a static from the next rebuild (moving it is a teleport). One
+/// re-parented during a step is swept from its world pose at the step's start to its world
+/// pose under its new parent; one that does not move over a step stands still that step. A mover whose pose is not finite,
 /// has no planar world pose or reaches past the coordinate limit is left out (with a
 /// warning) until its pose is good again; nothing else is affected. A [`Sensor`](super::Sensor)
-/// with it is not swept (it is teleported, as a static sensor is).
+/// with it is swept the same way: its crossings are found along both motions.
 ///
 /// ```
 /// use bevy_ccd::prelude::*;

@@ -7,14 +7,17 @@ use bevy_ecs::prelude::*;
 use bevy_ecs::system::{SystemChangeTick, SystemParam};
 use bevy_ecs::world::DeferredWorld;
 use bevy_reflect::prelude::*;
+use bevy_time::{Fixed, Time};
 use bevy_transform::components::Transform;
 use smallvec::SmallVec;
 
 use super::hierarchy::{Ancestry, TickedAncestry, moved_since, pose_in, push_ancestors};
 use super::outcome::CcdError;
+use super::record::step_length;
 use super::solve::Shared;
+use super::statics::{MoverAt, mover_sweep};
 use super::workspace::{BodyEntry, COMPOUND, CcdWorkspace, Lane};
-use super::{CcdConfig, Collider, CollisionLayers, StaticCollider};
+use super::{CcdConfig, Collider, CollisionLayers, MovingTarget, StaticCollider, Velocity};
 use crate::geometry::solver::sensor::{CrossingRecord, PathPiece, sense_path, starts_inside};
 use crate::geometry::{self, Aabb, Pose, StaticItem, StaticSet};
 
@@ -27,7 +30,9 @@ use crate::geometry::{self, Aabb, Pose, StaticItem, StaticSet};
 /// quarter slop), in time order, also when it passes entirely through within the step; a body
 /// already inside gets no new *entered*. The crossings are found along the path the body
 /// really travelled: to its impact when clamped, along every sub-step when sub-stepped.
-/// [`CollisionLayers`] apply as to solid targets.
+/// [`CollisionLayers`] apply as to solid targets. A sensor with
+/// [`MovingTarget`] is swept over the step beside each body (moving it rebuilds nothing): a
+/// trigger on a moving door reports a body at rest as the door passes over it.
 ///
 /// A `Sensor` on an entity without [`StaticCollider`] (a [`CcdEnabled`](super::CcdEnabled)
 /// body, say) is ignored, with a warning at the next rebuild of the sensors: the body is swept
@@ -102,8 +107,13 @@ pub(crate) struct SensorWorld {
     /// The solid hierarchy's rebuild count when these were built: every hook that changes a
     /// static marks that one stale, so a rebuild there rebuilds these too.
     built_at: Option<u64>,
-    /// The ancestors of the sensors at the last build (sorted): one that moves moves them.
+    /// The ancestors of the still sensors at the last build (sorted): one that moves moves
+    /// them.
     ancestors: Vec<Entity>,
+    /// The moving sensors ([`MovingTarget`]): entity and index, in index order.
+    movers: Vec<(Entity, u32)>,
+    /// Their motions this step.
+    motions: Vec<(u32, geometry::Sweep)>,
 }
 
 impl SensorWorld {
@@ -153,42 +163,88 @@ impl SensorLane {
     }
 }
 
-/// Moved or reparented since the last run.
-type Moved = Or<(Changed<Transform>, Changed<ChildOf>)>;
+/// Moved (a still sensor) or reparented since the last run: a moving sensor is swept instead.
+type Moved = Or<(
+    (Changed<Transform>, Without<MovingTarget>),
+    Changed<ChildOf>,
+)>;
 
 /// A sensor: a [`StaticCollider`] with [`Sensor`].
 type IsSensor = (With<Sensor>, With<StaticCollider>);
 
+/// What the rebuild reads of a sensor: whether it moves too.
+type SensorData = (
+    Entity,
+    &'static Collider,
+    &'static Transform,
+    Option<&'static CollisionLayers>,
+    Has<MovingTarget>,
+);
+
 /// What [`update_sensors`] reads of the world.
 #[derive(SystemParam)]
 pub(crate) struct SensorWatch<'w, 's> {
-    all: Query<
-        'w,
-        's,
-        (
-            Entity,
-            &'static Collider,
-            &'static Transform,
-            Option<&'static CollisionLayers>,
-        ),
-        IsSensor,
-    >,
+    all: Query<'w, 's, SensorData, IsSensor>,
+    /// The moving sensors' velocities, which say how many turns they make.
+    velocities: Query<'w, 's, &'static Velocity, (IsSensor, With<MovingTarget>)>,
     moved: Query<'w, 's, (), (IsSensor, Moved)>,
     stray: Query<'w, 's, Entity, (With<Sensor>, Without<StaticCollider>)>,
     ancestry: Ancestry<'w, 's>,
     ticked: TickedAncestry<'w, 's>,
     ticks: SystemChangeTick,
+    time: Option<Res<'w, Time<Fixed>>>,
 }
 
 /// [`CcdStepSystems::UpdateStatics`](super::CcdStepSystems::UpdateStatics), after the solid
 /// hierarchy: rebuilds the sensors' when that one was rebuilt or a sensor moved. Sensors are in
 /// entity order, so every crossing list is deterministic. A sensor reaching beyond the
-/// coordinate limit is ignored with a warning, as a static is.
+/// coordinate limit is ignored with a warning, as a static is. A moving sensor
+/// ([`MovingTarget`]) is kept out of the built hierarchy and given its motion over the step, as
+/// a moving solid target is: moving it rebuilds nothing.
 pub(crate) fn update_sensors(
     config: Res<CcdConfig>,
     mut workspace: ResMut<CcdWorkspace>,
     watch: SensorWatch,
 ) {
+    let limit = geometry::max_world_coordinate(config.linear_slop);
+    rebuild_sensors(&mut workspace, &watch, limit);
+    if workspace.sensors.movers.is_empty() {
+        return;
+    }
+    let workspace = workspace.as_mut();
+    let dt = step_length(&config, watch.time.as_deref());
+    let sensors = &mut workspace.sensors;
+    let mut motions = core::mem::take(&mut sensors.motions);
+    motions.clear();
+    for &(entity, index) in &sensors.movers {
+        let at = MoverAt {
+            target: entity,
+            collider: entity,
+            angular: watch.velocities.get(entity).ok().map(|v| v.angular),
+        };
+        let proxy = &sensors.set.items()[index as usize].proxy;
+        let starts = &workspace.mover_starts;
+        match mover_sweep(at, proxy, starts, &watch.ancestry, dt, limit) {
+            Ok(sweep) => motions.push((index, sweep)),
+            Err(error) => {
+                log::warn!(
+                    "bevy_ccd: moving sensor {entity} reports nothing this step: {error:?} (a \
+                     non-finite Transform, a chain with no planar world pose, or a sweep beyond \
+                     {limit} m from the origin)"
+                );
+                sensors.set.disable(index as usize);
+                // Rebuilt at the next step, which leaves it out until its pose is good again.
+                sensors.built_at = None;
+            }
+        }
+    }
+    sensors.set.move_targets(motions.iter().copied());
+    sensors.motions = motions;
+}
+
+/// Rebuilds the sensors' hierarchy when the solid one was rebuilt or a sensor moved (a still
+/// one) or was reparented.
+fn rebuild_sensors(workspace: &mut CcdWorkspace, watch: &SensorWatch, limit: f32) {
     let SensorWatch {
         all,
         moved,
@@ -196,6 +252,7 @@ pub(crate) fn update_sensors(
         ancestry,
         ticked,
         ticks,
+        ..
     } = watch;
     let rebuilds = workspace.rebuilds;
     let sensors = &mut workspace.sensors;
@@ -203,23 +260,25 @@ pub(crate) fn update_sensors(
     let carried = sensors
         .ancestors
         .iter()
-        .any(|&a| moved_since(a, &ticked, ticks.last_run(), ticks.this_run()));
+        .any(|&a| moved_since(a, ticked, ticks.last_run(), ticks.this_run()));
     if sensors.built_at == Some(rebuilds) && moved.is_empty() && !carried {
         return;
     }
-    for entity in &stray {
+    for entity in stray.iter() {
         log::warn!("bevy_ccd: {entity} has Sensor but no StaticCollider: not a sensor");
     }
-    let limit = geometry::max_world_coordinate(config.linear_slop);
     let within = |b: Aabb| b.min.abs().max(b.max.abs()).max_element() <= limit;
     let mut ancestors = core::mem::take(&mut sensors.ancestors);
     ancestors.clear();
     let mut list: Vec<_> = all
         .iter()
-        .filter_map(|(entity, collider, _, layers)| {
-            // At its world pose composed through the hierarchy, scaled, as a static.
-            push_ancestors(entity, &ancestry, &mut ancestors);
-            let item = pose_in(entity, None, &ancestry).ok().and_then(|pose| {
+        .filter_map(|(entity, collider, _, layers, moving)| {
+            // At its world pose composed through the hierarchy, scaled, as a static. A moving
+            // sensor's ancestors move it, not the hierarchy.
+            if !moving {
+                push_ancestors(entity, ancestry, &mut ancestors);
+            }
+            let item = pose_in(entity, None, ancestry).ok().and_then(|pose| {
                 let proxy = collider.proxy().scaled(pose.scale);
                 let placed = Pose::new(pose.position, pose.angle);
                 (proxy.is_finite() && within(proxy.aabb(placed))).then_some(StaticItem {
@@ -234,18 +293,28 @@ pub(crate) fn update_sensors(
                      {limit} m from the origin (the limit at this slop); ignored"
                 );
             }
-            item.map(|item| (entity, item, layers.copied().unwrap_or_default()))
+            item.map(|item| (entity, item, layers.copied().unwrap_or_default(), moving))
         })
         .collect();
     ancestors.sort_unstable();
     ancestors.dedup();
     sensors.ancestors = ancestors;
-    list.sort_by_key(|(entity, _, _)| *entity);
+    list.sort_by_key(|(entity, _, _, _)| *entity);
     sensors.entities.clear();
     sensors.entities.extend(list.iter().map(|s| s.0));
     sensors.layers.clear();
     sensors.layers.extend(list.iter().map(|s| s.2));
-    sensors.set.rebuild(list.into_iter().map(|s| s.1));
+    sensors.movers.clear();
+    sensors.movers.extend(
+        list.iter()
+            .enumerate()
+            .filter(|(_, s)| s.3)
+            .map(|(index, s)| (s.0, index as u32)),
+    );
+    let movers: Vec<u32> = sensors.movers.iter().map(|m| m.1).collect();
+    sensors
+        .set
+        .rebuild_with_movers(list.into_iter().map(|s| s.1), &movers);
     sensors.built_at = Some(rebuilds);
 }
 

@@ -27,6 +27,7 @@ use super::{
     StaticCollider, Velocity,
 };
 use crate::geometry::{self, Aabb, Pose, StaticItem, Sweep};
+use glam::Vec2;
 
 /// What the rebuild reads of a target.
 type StaticData = (
@@ -304,8 +305,9 @@ fn rebuild_if_stale(workspace: &mut CcdWorkspace, watch: &mut StaticWatch, limit
     workspace.rebuilds += 1;
 }
 
-/// What [`record_movers`] reads: each moving target (a solid static with a [`MovingTarget`]).
-type Movers<'w, 's> = Query<'w, 's, Entity, (Solid, With<MovingTarget>)>;
+/// What [`record_movers`] reads: each moving target (a static with a [`MovingTarget`], a
+/// sensor too).
+type Movers<'w, 's> = Query<'w, 's, Entity, (With<StaticCollider>, With<MovingTarget>)>;
 
 /// [`CcdSystems::RecordStart`](super::CcdSystems::RecordStart): the world pose of every moving
 /// target at the start of the step, which its motion starts from. A mover whose chain has no
@@ -325,6 +327,53 @@ pub(crate) fn record_movers(
     starts.sort_unstable_by_key(|(entity, _, _)| *entity);
 }
 
+/// One item of a moving target: the target, the collider (the target's own or a part's) and
+/// the target's angular velocity if it has a [`Velocity`].
+pub(crate) struct MoverAt {
+    pub(crate) target: Entity,
+    pub(crate) collider: Entity,
+    pub(crate) angular: Option<f32>,
+}
+
+/// The motion over this step of a moving target's item of shape `proxy`: from the target's
+/// pose at the start (`starts`, [`record_movers`]; its pose now when it has none) to its pose
+/// now, turning by [`turn`], about the target's origin. An error when a pose is not finite or
+/// has no planar world pose, or the sweep reaches past `limit`.
+pub(crate) fn mover_sweep(
+    at: MoverAt,
+    proxy: &geometry::ShapeProxy,
+    starts: &[(Entity, Vec2, f32)],
+    ancestry: &Ancestry,
+    dt: f32,
+    limit: f32,
+) -> Result<Sweep, super::CcdError> {
+    let within = |bounds: Aabb| bounds.min.abs().max(bounds.max.abs()).max_element() <= limit;
+    let MoverAt {
+        target,
+        collider,
+        angular,
+    } = at;
+    let now = pose_in(target, None, ancestry)?;
+    let item_now = if collider == target {
+        now
+    } else {
+        pose_in(collider, None, ancestry)?
+    };
+    let start = starts
+        .binary_search_by_key(&target, |(entity, _, _)| *entity)
+        .map_or((now.position, now.angle), |at| (starts[at].1, starts[at].2));
+    let delta = turn(start.1, now.angle, angular, dt);
+    // The target's origin in the item's frame: the point the item turns about.
+    let center = Pose::new(item_now.position, item_now.angle).inv_transform_point(now.position);
+    let (a1, c1) = (item_now.angle, now.position);
+    let sweep = Sweep::new(center, start.0, a1 - delta, c1, a1);
+    if sweep.is_finite() && within(proxy.swept_aabb(&sweep)) {
+        Ok(sweep)
+    } else {
+        Err(super::CcdError::CoordinatesTooLarge)
+    }
+}
+
 /// Gives each moving target's items their motion over this step: from the target's pose at
 /// the start ([`record_movers`]) to its pose now, turning by [`turn`] (its [`Velocity`] says how
 /// many whole turns), each item about the target's origin. An item whose pose is not finite,
@@ -335,40 +384,25 @@ fn move_movers(workspace: &mut CcdWorkspace, watch: &StaticWatch, dt: f32, limit
     if workspace.movers.is_empty() {
         return;
     }
-    let within = |bounds: Aabb| bounds.min.abs().max(bounds.max.abs()).max_element() <= limit;
     let mut motions = core::mem::take(&mut workspace.mover_motions);
     motions.clear();
     let mut bad = false;
     for &(target, collider, index) in &workspace.movers {
-        let now = pose_in(target, None, &watch.ancestry);
-        let item_now = if collider == target {
-            now
-        } else {
-            pose_in(collider, None, &watch.ancestry)
+        let angular = watch.velocities.get(target).ok().map(|v| v.angular);
+        let proxy = &workspace.statics.items()[index as usize].proxy;
+        let at = MoverAt {
+            target,
+            collider,
+            angular,
         };
-        let proxy = workspace.statics.items()[index as usize].proxy;
-        let sweep = now.and_then(|now| {
-            let item_now = item_now?;
-            let start = workspace
-                .mover_starts
-                .binary_search_by_key(&target, |(entity, _, _)| *entity)
-                .map_or((now.position, now.angle), |at| {
-                    let (_, position, angle) = workspace.mover_starts[at];
-                    (position, angle)
-                });
-            let angular = watch.velocities.get(target).ok().map(|v| v.angular);
-            let delta = turn(start.1, now.angle, angular, dt);
-            // The target's origin in the item's frame: the point the item turns about.
-            let center =
-                Pose::new(item_now.position, item_now.angle).inv_transform_point(now.position);
-            let (a1, c1) = (item_now.angle, now.position);
-            let sweep = Sweep::new(center, start.0, a1 - delta, c1, a1);
-            if sweep.is_finite() && within(proxy.swept_aabb(&sweep)) {
-                Ok(sweep)
-            } else {
-                Err(super::CcdError::CoordinatesTooLarge)
-            }
-        });
+        let sweep = mover_sweep(
+            at,
+            proxy,
+            &workspace.mover_starts,
+            &watch.ancestry,
+            dt,
+            limit,
+        );
         match sweep {
             Ok(sweep) => motions.push((index, sweep)),
             Err(error) => {

@@ -300,7 +300,7 @@ pub(crate) fn solve_body(
                 squeezed: false,
             }
         }
-        [one] => solve(
+        [one] => solve_in(
             body,
             &Single(one),
             statics,
@@ -311,7 +311,7 @@ pub(crate) fn solve_body(
             filter,
             path,
         ),
-        _ => solve(
+        _ => solve_in(
             body,
             &Many(parts),
             statics,
@@ -325,6 +325,31 @@ pub(crate) fn solve_body(
     }
 }
 
+/// [`solve`] for a world where some target moves, or for a still one (which reads no motion).
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn solve_in(
+    body: &BodyState,
+    parts: &impl Parts,
+    statics: &StaticSet,
+    candidates: &[u32],
+    settings: &SolveSettings,
+    scratch: &mut Vec<u32>,
+    impacts: &mut Vec<ImpactRecord>,
+    filter: &impl BodyFilter,
+    path: Option<&mut Vec<PathPiece>>,
+) -> BodyOutcome {
+    if statics.has_movers() {
+        solve::<true>(
+            body, parts, statics, candidates, settings, scratch, impacts, filter, path,
+        )
+    } else {
+        solve::<false>(
+            body, parts, statics, candidates, settings, scratch, impacts, filter, path,
+        )
+    }
+}
+
 /// The farthest core point of any part from `center`.
 #[inline(always)]
 fn parts_reach(parts: &impl Parts, center: Vec2) -> f32 {
@@ -335,10 +360,11 @@ fn parts_reach(parts: &impl Parts, center: Vec2) -> f32 {
     reach
 }
 
-/// [`solve_body`] over the parts of a body.
+/// [`solve_body`] over the parts of a body; `MOVERS` when some target moves this step (the
+/// still world's solve reads no motion).
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-fn solve(
+fn solve<const MOVERS: bool>(
     body: &BodyState,
     parts: &impl Parts,
     statics: &StaticSet,
@@ -380,10 +406,12 @@ fn solve(
     // (Target, part) pairs `accept` rejected: skipped for the rest of the step. Each search
     // again after a rejection adds one, so they are bounded by the candidates.
     let mut vetoed: SmallVec<[(u32, u32); 4]> = SmallVec::new();
+    // The motion of target `index` over the step if it moves (none in a still world).
+    let motion_of = |index: u32| if MOVERS { statics.motion(index) } else { None };
     // The velocity field of target `index` at step fraction `at` if it moves: a point `p` of
     // it moves at `v + w × (p - c)` (its velocity `v`, spin `w`, centre `c`).
     let carried = |index: u32, at: f32| {
-        let m = statics.motion(index)?;
+        let m = motion_of(index)?;
         Some((
             m.linear_motion() / dt,
             m.angular_motion() / dt,
@@ -391,7 +419,7 @@ fn solve(
         ))
     };
     loop {
-        let list: &[u32] = if first && !statics.has_movers() {
+        let list: &[u32] = if first && !MOVERS {
             candidates
         } else {
             scratch.clear();
@@ -404,7 +432,7 @@ fn solve(
             } else {
                 statics.candidates_in(bounds, slop, scratch);
             }
-            if statics.has_movers() {
+            if MOVERS {
                 // The movers, by the boxes of their whole step, which hold every stretch.
                 let still = scratch.len();
                 statics.movers_in(bounds, slop, scratch);
@@ -417,7 +445,7 @@ fn solve(
         // A moving target's motion over this sweep's stretch of the step (`[step_start, 1]`),
         // and its item and frame at the stretch's start.
         let mover = |index: u32| {
-            let mut motion = *statics.motion(index)?;
+            let mut motion = *motion_of(index)?;
             motion.advance(step_start);
             let item = &statics.items()[index as usize];
             let at = StaticItem {
@@ -464,7 +492,11 @@ fn solve(
                 else {
                     continue;
                 };
-                let moving = if record.moving { mover(index) } else { None };
+                let moving = if MOVERS && record.moving {
+                    mover(index)
+                } else {
+                    None
+                };
                 for part in 0..n {
                     if !filter.interacts(part, index) {
                         continue;
@@ -522,7 +554,11 @@ fn solve(
             ) else {
                 continue;
             };
-            let moving = if record.moving { mover(index) } else { None };
+            let moving = if MOVERS && record.moving {
+                mover(index)
+            } else {
+                None
+            };
             let (target, frame, motion) = match &moving {
                 None => (item, record.frame(), None),
                 Some((at, frame, motion)) => (at, *frame, Some(motion)),
@@ -709,7 +745,7 @@ fn solve(
             });
             let (a, b) = contact.patch.unwrap_or_else(|| {
                 let target = &statics.items()[index as usize];
-                let target_pose = match statics.motion(index) {
+                let target_pose = match motion_of(index) {
                     None => Pose {
                         p: target.position,
                         q: statics.records()[index as usize].key.rotation,
@@ -814,7 +850,7 @@ fn solve(
             if on_mover && step_fraction < 1.0 {
                 let first = contacts[0].0;
                 let alone = contacts.iter().all(|c| c.0 == first);
-                match statics.motion(first).filter(|_| alone) {
+                match motion_of(first).filter(|_| alone) {
                     // Held by one mover alone, out of sub-steps or wedged on it: it rides the
                     // mover for the rest of the step, where it is relative to it, moving with
                     // it (nothing else is searched on the way).
@@ -1196,7 +1232,7 @@ mod tests {
     ) -> (BodyOutcome, Vec<ImpactRecord>) {
         let mut impacts = Vec::new();
         let scratch = &mut Vec::new();
-        let out = super::solve(
+        let out = super::solve::<false>(
             &body.state,
             parts,
             statics,

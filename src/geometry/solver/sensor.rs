@@ -19,6 +19,10 @@
 //! at a piece's boundary gets no second record, and one inside at the step's start gets no
 //! *entered*.
 //!
+//! A moving sensor (one with a motion in its [`StaticSet`]) is swept over each piece's stretch
+//! of the step beside the body, so that a crossing is found along both motions: a sensor that
+//! passes over a resting body reports it entering and leaving.
+//!
 //! Limit: each piece yields at most one *entered* and one *exited* per sensor, the first entry and
 //! the last exit. A body that turns out of a sensor and back in within one piece (or in and
 //! back out, starting and ending outside it, after an entry) reports only those two. A query
@@ -78,6 +82,10 @@ pub(crate) fn sense_path(
     for (k, piece) in path.iter().enumerate() {
         scratch.clear();
         sensors.candidates(proxy, &piece.sweep, linear_slop, scratch);
+        if sensors.has_movers() {
+            // Moving sensors, by the boxes of their whole step.
+            sensors.movers_in(proxy.swept_aabb(&piece.sweep), linear_slop, scratch);
+        }
         // A sensor removed during the step ([`StaticSet::disable`]) reports nothing.
         let live = |i: u32| !sensors.is_disabled(i as usize) && accepts(i);
         for &index in scratch.iter().filter(|&&i| live(i)) {
@@ -94,7 +102,10 @@ pub(crate) fn sense_path(
         let Some(item) = sensors.items().get(index as usize) else {
             continue;
         };
-        let touch = |sweep: Sweep| touch(proxy, sweep, item, linear_slop);
+        let motion = sensors.motion(index);
+        let touch = |sweep: Sweep, from: f32, to: f32| {
+            touch(proxy, sweep, (item, motion, from, to), linear_slop)
+        };
         // A piece far from the sensor is outside it throughout.
         let mut inside = false;
         for (k, piece) in path.iter().enumerate() {
@@ -115,7 +126,7 @@ pub(crate) fn sense_path(
                 continue;
             }
             let s = piece.sweep;
-            let forward = touch(s);
+            let forward = touch(s, piece.from, piece.to);
             let start_in = touching_at_start(&forward);
             // The previous piece ended where this one starts, so the two agree but for a
             // solver's nudge; then the difference is a crossing at the boundary. The step's
@@ -134,7 +145,7 @@ pub(crate) fn sense_path(
                 // Apart throughout, or no answer: nothing to report on this piece.
                 continue;
             };
-            let reversed = touch(Sweep::new(s.local_center, s.c1, s.a1, s.c0, s.a0));
+            let reversed = touch(reverse(&s), piece.to, piece.from);
             if reversed.state == ToiState::Hit && reversed.fraction > 0.0 {
                 // Touching last at `1 - fraction` of the piece, apart at its end (never before
                 // the entry, whatever the rounding).
@@ -152,10 +163,35 @@ pub(crate) fn sense_path(
     });
 }
 
-/// The time of impact of `proxy` moving along `sweep` with the sensor `item`, the surfaces
-/// touching (target separation 0): the one test of both crossings and inside states.
-fn touch(proxy: &ShapeProxy, sweep: Sweep, item: &StaticItem, linear_slop: f32) -> ToiOutput {
-    let sensor_sweep = Sweep::stationary(Vec2::ZERO, item.position, item.angle);
+/// `sweep` run backwards, end to start.
+fn reverse(sweep: &Sweep) -> Sweep {
+    Sweep::new(sweep.local_center, sweep.c1, sweep.a1, sweep.c0, sweep.a0)
+}
+
+/// A sensor, its motion over the step if it moves, and the fractions of the step a sweep
+/// runs from and to (`from > to` for a reversed one).
+type SensorAt<'a> = (&'a StaticItem, Option<&'a Sweep>, f32, f32);
+
+/// The time of impact of `proxy` moving along `sweep` with the sensor, the surfaces touching
+/// (target separation 0): the one test of both crossings and inside states. A moving sensor
+/// is swept over the same stretch of the step as the body, from its pose at `from` to its
+/// pose at `to`.
+fn touch(
+    proxy: &ShapeProxy,
+    sweep: Sweep,
+    (item, motion, from, to): SensorAt,
+    linear_slop: f32,
+) -> ToiOutput {
+    let sensor_sweep = match motion {
+        None => Sweep::stationary(Vec2::ZERO, item.position, item.angle),
+        Some(m) => Sweep::new(
+            m.local_center,
+            m.center_at(from),
+            m.angle_at(from),
+            m.center_at(to),
+            m.angle_at(to),
+        ),
+    };
     time_of_impact(&ToiInput {
         max_fraction: 1.0,
         config: ToiConfig {
@@ -182,7 +218,8 @@ pub(crate) fn starts_inside(
 ) -> bool {
     match (path.first(), sensors.items().get(index as usize)) {
         (Some(piece), Some(item)) => {
-            touching_at_start(&touch(proxy, piece.sweep, item, linear_slop))
+            let sensor = (item, sensors.motion(index), piece.from, piece.to);
+            touching_at_start(&touch(proxy, piece.sweep, sensor, linear_slop))
         }
         _ => false,
     }
@@ -206,18 +243,7 @@ mod tests {
     }
 
     fn sense(path: &[PathPiece], radius: f32) -> Vec<CrossingRecord> {
-        let proxy = Shape::from(Circle::new(radius).unwrap()).proxy();
-        let mut out = Vec::new();
-        sense_path(
-            &proxy,
-            path,
-            &trigger(),
-            |_| true,
-            LINEAR_SLOP,
-            &mut Vec::new(),
-            &mut out,
-        );
-        out
+        sense_in(&trigger(), path, radius)
     }
 
     fn piece(from_x: f32, to_x: f32, from: f32, to: f32) -> PathPiece {
@@ -271,6 +297,73 @@ mod tests {
         let out = sense(&[piece(0.0, 1.0, 0.0, 1.0)], 0.01);
         assert_eq!(out.len(), 1, "{out:?}");
         assert!(!out[0].entered);
+    }
+
+    /// The trigger of [`trigger`] moving along x from `from_x` to `to_x` over the step.
+    fn moving_trigger(from_x: f32, to_x: f32) -> StaticSet {
+        let mut set = StaticSet::default();
+        let item = trigger().items()[0];
+        set.rebuild_with_movers([item], &[0]);
+        let motion = Sweep::new(
+            Vec2::ZERO,
+            Vec2::new(from_x, 0.0),
+            0.0,
+            Vec2::new(to_x, 0.0),
+            0.0,
+        );
+        set.move_targets([(0, motion)]);
+        set
+    }
+
+    /// One entry at `(1 - 0.005 - r) / 2` and one exit at `(1 + 0.005 + r) / 2`, within
+    /// `tolerance`: a disc of radius `r` and the 1 cm trigger meeting and parting over 2 m.
+    fn in_and_out(out: &[CrossingRecord], r: f32, tolerance: f32) {
+        assert_eq!(out.len(), 2, "{out:?}");
+        assert!(out[0].entered && !out[1].entered, "{out:?}");
+        let expected = [(1.0 - 0.005 - r) / 2.0, (1.0 + 0.005 + r) / 2.0];
+        for (c, e) in out.iter().zip(expected) {
+            assert!((c.fraction - e).abs() < tolerance, "{out:?}");
+        }
+    }
+
+    fn sense_in(set: &StaticSet, path: &[PathPiece], radius: f32) -> Vec<CrossingRecord> {
+        let proxy = Shape::from(Circle::new(radius).unwrap()).proxy();
+        let mut out = Vec::new();
+        sense_path(
+            &proxy,
+            path,
+            set,
+            |_| true,
+            LINEAR_SLOP,
+            &mut Vec::new(),
+            &mut out,
+        );
+        out
+    }
+
+    /// A sensor sweeping from x = -1 to x = 1 over a disc resting at the origin: entered when
+    /// its face reaches the disc (x = -0.005 - r), exited when its back leaves it, at the
+    /// closed-form fractions within the search tolerance over the 2 m it travels.
+    #[test]
+    fn a_moving_sensor_passing_over_a_resting_body_reports_it_once() {
+        let r = 0.01;
+        let set = moving_trigger(-1.0, 1.0);
+        let out = sense_in(&set, &[piece(0.0, 0.0, 0.0, 1.0)], r);
+        in_and_out(&out, r, 0.25 * LINEAR_SLOP / 2.0 + 1e-6);
+    }
+
+    /// A body and a sensor closing on each other, each 1 m a step, 1 m apart: they meet at
+    /// half the gap, the body then passes through; over two pieces of the path (a sub-step
+    /// boundary at 0.25), the sensor sliced the same.
+    #[test]
+    fn a_body_and_a_sensor_moving_towards_each_other_meet_halfway() {
+        let r = 0.01;
+        let set = moving_trigger(0.5, -0.5);
+        let path = [piece(-0.5, -0.25, 0.0, 0.25), piece(-0.25, 0.5, 0.25, 1.0)];
+        let out = sense_in(&set, &path, r);
+        // Closing at 2 m a step over a gap of 1 - 0.005 - r, opening again up to 0.005 + r
+        // past each other.
+        in_and_out(&out, r, 0.25 * LINEAR_SLOP + 1e-6);
     }
 
     /// A path that stays away reports nothing.

@@ -82,6 +82,7 @@ impl StaticSet {
     }
 
     /// Replaces every target; target `i` of the slice gets index `i`. None of them moves.
+    #[cfg(test)]
     pub fn rebuild(&mut self, items: impl IntoIterator<Item = StaticItem>) {
         self.rebuild_with_movers(items, &[]);
     }
