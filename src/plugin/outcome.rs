@@ -93,8 +93,7 @@ pub enum CcdError {
     InvalidHierarchy,
     /// A `Transform` on the way to the world is not a planar similarity: a scale that is not
     /// uniform in x and y or not positive, or a rotation out of the plane (for a body's own
-    /// `Transform`, one other than a mirror: a half turn about an axis in the plane); or a
-    /// compound body's world scale is not 1.
+    /// `Transform`, one other than a mirror: a half turn about an axis in the plane).
     UnsupportedTransform,
     /// A [`MovingTarget`](super::MovingTarget) caught the body against another target (or
     /// another mover) and it could not get away within the step: it is left at its last pose
