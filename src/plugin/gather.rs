@@ -274,14 +274,14 @@ pub(crate) fn fill(body: &mut BodyEntry, limit: f32) -> Result<(), CcdError> {
 }
 
 /// Gives `body` the candidates `lane.candidates[start..start + count]`; more than `u16::MAX`
-/// (a swept bound across a huge level) is [`CcdError::CoordinatesTooLarge`].
+/// (a swept bound across a huge level) is [`CcdError::TooManyCandidates`].
 fn set_candidates(body: &mut BodyEntry, start: usize, count: usize) {
     body.candidates = start as u32;
     match u16::try_from(count) {
         Ok(count) => body.candidate_count = count,
         Err(_) => {
             body.candidate_count = 0;
-            body.error = Some(CcdError::CoordinatesTooLarge);
+            body.error = Some(CcdError::TooManyCandidates);
         }
     }
 }

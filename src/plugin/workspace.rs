@@ -34,7 +34,7 @@ pub(crate) struct BodyEntry {
     /// This body's candidate targets: `lane.candidates[candidates..candidates + count]`.
     pub(crate) candidates: u32,
     /// At most `u16::MAX` (a body whose swept bound meets more targets is
-    /// [`CcdError::CoordinatesTooLarge`]): two bytes, so that the entry stays 104 bytes.
+    /// [`CcdError::TooManyCandidates`]): two bytes, so that the entry stays 104 bytes.
     pub(crate) candidate_count: u16,
     /// This body's impacts: `lane.impacts[impacts..impacts + impact_count]`.
     pub(crate) impacts: u32,
