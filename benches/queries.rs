@@ -168,6 +168,16 @@ fn benches(c: &mut Criterion) {
             .expect("a valid ray")
             .map(|hit| hit.fraction)
     };
+    // `QUERIES_PROFILE=n`: ours alone, every shape cast then every ray `n` times, nothing
+    // timed: instruction counts of `profile_shape_casts` and `profile_rays` under callgrind.
+    if let Some(n) = std::env::var("QUERIES_PROFILE")
+        .ok()
+        .and_then(|s| s.parse().ok())
+    {
+        profile_shape_casts(n, &shapes, ours_cast);
+        profile_rays(n, &rays, ours_ray);
+        return;
+    }
     // Both answer every cast alike within the slop (as fractions of the cast's length): the
     // comparison is of like with like. Reported, not asserted: parry's own tolerances differ.
     let agree = |a: Option<f32>, b: Option<f32>, length: f32| match (a, b) {
@@ -223,6 +233,30 @@ fn benches(c: &mut Criterion) {
         })
     });
     group.finish();
+}
+
+/// Every shape cast of `cases` through `cast`, `n` times (`QUERIES_PROFILE`).
+#[inline(never)]
+fn profile_shape_casts(n: usize, cases: &[ShapeCase], cast: impl Fn(&ShapeCase) -> Option<f32>) {
+    for _ in 0..n {
+        for case in cases {
+            black_box(cast(case));
+        }
+    }
+}
+
+/// Every ray of `rays` through `cast`, `n` times (`QUERIES_PROFILE`).
+#[inline(never)]
+fn profile_rays(
+    n: usize,
+    rays: &[(Vec2, Vec2, f32)],
+    cast: impl Fn(&(Vec2, Vec2, f32)) -> Option<f32>,
+) {
+    for _ in 0..n {
+        for ray in rays {
+            black_box(cast(ray));
+        }
+    }
 }
 
 fn config() -> Criterion {

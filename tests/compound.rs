@@ -3,7 +3,8 @@
 //! collider of its own) thrown at a wall never passes it, at 5 and 500 m/s, spinning or not,
 //! in both modes, and each impact names the part that hit; the rod alone hitting a corner is
 //! caught; a child's own layers override the body's; parts added, removed or reparented
-//! between steps count from the next step; one thread and two give the same bits.
+//! between steps count from the next step; a body's uniform world scale scales its parts; one
+//! thread and two give the same bits.
 
 mod support;
 
@@ -14,8 +15,9 @@ use bevy_ccd::testing::{StepFixed, deepest_penetration};
 use bevy_ccd_fixtures::{ArenaConfig, arena_app, assert_contained};
 use bevy_ecs::prelude::*;
 use bevy_transform::prelude::Transform;
-use glam::Quat;
+use glam::{Quat, Vec3};
 use support::app::*;
+use support::reference::{Core, P, core_distance};
 
 const WORLD: u32 = 1 << 0;
 const GHOST: u32 = 1 << 3;
@@ -367,6 +369,144 @@ fn a_bodys_own_collider_is_one_of_its_parts() {
         // Stopped with the leading disc short of the wall.
         let front = position(&app, body).x + child_x.max(0.0) + DISC;
         assert!(front <= 2.0, "child at {child_x}: front at {front}");
+    }
+}
+
+/// The world hull (`f64` points) and radius of a collider on a part with the local
+/// `Transform` `part` under a root body with the `Transform` `body`, composed here in `f64`:
+/// `x ↦ p_b + s_b R(a_b) (p_p + s_p R(a_p) x)`, the radius times `s_b s_p`.
+fn world_core(body: &Transform, part: &Transform, collider: &Collider) -> Core {
+    let frame = |t: &Transform| {
+        let a = angle_of(t) as f64;
+        let p = [t.translation.x as f64, t.translation.y as f64];
+        (p, a.cos(), a.sin(), t.scale.x as f64)
+    };
+    let apply = |(p, c, s, k): (P, f64, f64, f64), x: P| {
+        [
+            p[0] + k * (c * x[0] - s * x[1]),
+            p[1] + k * (s * x[0] + c * x[1]),
+        ]
+    };
+    let (b, q) = (frame(body), frame(part));
+    let proxy = collider.proxy();
+    let points: Vec<P> = proxy
+        .points()
+        .iter()
+        .map(|x| apply(b, apply(q, [x.x as f64, x.y as f64])))
+        .collect();
+    Core::new(&points, b.3 * q.3 * proxy.radius as f64)
+}
+
+/// Compound bodies whose parts carry a uniform world scale, thrown at a 1 cm wall at 500 m/s,
+/// still and spinning, in both modes: a body drawn at scale 3 (its own disc and two child
+/// parts, one turned), and an unscaled body with a part drawn at scale 2.5. Judged in world
+/// poses by an `f64` distance composed from the `Transform`s ([`world_core`]): no part ever
+/// overlaps the wall by more than the slop or passes it, the body is swept (before, a scaled
+/// compound body was `UnsupportedTransform`, left to pass through), and a still body clamped
+/// at its first impact rests with its leading part the slop from the wall (`± TOL`).
+#[test]
+fn a_compound_body_at_scale_stops_at_a_thin_wall() {
+    let face = 2.0f32;
+    let wall_at = Transform::from_xyz(face + 0.005, 0.0, 0.0);
+    let wall = Collider::rectangle(0.005, 3.0).expect("wall");
+    let wall_core = world_core(&Transform::IDENTITY, &wall_at, &wall);
+    for mode in [Resolution::Clamp, Resolution::default()] {
+        for w in [0.0f32, 40.0] {
+            for scaled_body in [true, false] {
+                let what = format!("{mode:?}, {w} rad/s, scaled body {scaled_body}");
+                let mut app = app_with(mode, Vec2::ZERO, true);
+                spawn_static(&mut app, wall, wall_at.translation.truncate());
+                let body = spawn_body(
+                    &mut app,
+                    Vec2::new(-1.0, 0.2),
+                    0.3,
+                    Vec2::new(500.0, 0.0),
+                    w,
+                );
+                let part_scale = if scaled_body {
+                    app.world_mut()
+                        .entity_mut(body)
+                        .insert(Collider::circle(0.03).expect("disc"))
+                        .get_mut::<Transform>()
+                        .expect("transform")
+                        .scale = Vec3::splat(3.0);
+                    1.0
+                } else {
+                    2.5
+                };
+                let mut parts = vec![
+                    spawn_part(
+                        &mut app,
+                        body,
+                        Collider::circle(0.04).expect("disc"),
+                        Vec2::new(0.12, 0.03),
+                        0.0,
+                    ),
+                    spawn_part(
+                        &mut app,
+                        body,
+                        Collider::rectangle(0.05, 0.01).expect("bar"),
+                        Vec2::new(-0.08, 0.0),
+                        0.7,
+                    ),
+                ];
+                for &part in &parts {
+                    app.world_mut()
+                        .get_mut::<Transform>(part)
+                        .expect("part")
+                        .scale = Vec3::splat(part_scale);
+                }
+                if scaled_body {
+                    parts.push(body);
+                }
+                let mut hit = false;
+                for k in 0..6 {
+                    step(&mut app);
+                    let outcome = toi(&app, body);
+                    assert!(outcome.error().is_none(), "{what} step {k}: {outcome:?}");
+                    // Clamped at its first impact, a still body rests at the wall that step.
+                    let first = !hit && outcome.impacts() > 0;
+                    hit |= first;
+                    let world = app.world();
+                    let b = world.get::<Transform>(body).expect("body");
+                    let mut nearest = f64::INFINITY;
+                    for &part in &parts {
+                        let local = if part == body {
+                            Transform::IDENTITY
+                        } else {
+                            *world.get::<Transform>(part).expect("part")
+                        };
+                        let core =
+                            world_core(b, &local, world.get::<Collider>(part).expect("collider"));
+                        let gap = core_distance(&core, &ref_pose(), &wall_core, &ref_pose())
+                            - core.radius;
+                        let behind = core.points.iter().all(|p| p[0] < face as f64);
+                        assert!(
+                            behind && gap >= -(SLOP as f64),
+                            "{what} step {k}: part {part} {gap} m from the wall (behind: {behind})"
+                        );
+                        nearest = nearest.min(gap);
+                    }
+                    if first && w == 0.0 && mode == Resolution::Clamp {
+                        let off = (nearest - SLOP as f64).abs();
+                        assert!(
+                            off <= (TOL + ROUND) as f64,
+                            "{what} step {k}: gap {nearest}"
+                        );
+                    }
+                }
+                assert!(hit, "{what}: never hit");
+            }
+        }
+    }
+}
+
+/// The identity pose in `f64`: [`world_core`] places its points in the world already.
+fn ref_pose() -> support::reference::PoseD {
+    support::reference::PoseD {
+        c: 1.0,
+        s: 0.0,
+        p: [0.0, 0.0],
     }
 }
 

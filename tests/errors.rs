@@ -121,6 +121,52 @@ fn bad_bodies_are_reported_and_left_alone() {
     }
 }
 
+/// A body whose one step crosses more than 65,535 small statics (about 77,000 pebbles of 1 mm
+/// filling the upper-left half of its swept box, none within a metre of its diagonal path from
+/// (0, 0) to (100, 100)) is `CcdError::TooManyCandidates`, left where its user put it (before,
+/// it was given the wrong reason, `CoordinatesTooLarge`); a body beside the pebbles is swept.
+#[test]
+fn a_body_with_too_many_candidates_says_so() {
+    let mut app = app_with(Resolution::Clamp, Vec2::ZERO, true);
+    let pebble = Collider::circle(0.001).expect("pebble");
+    let n = 400;
+    let cell = 99.0 / n as f32;
+    let mut pebbles = 0;
+    for i in 0..n {
+        for j in 0..n {
+            let at = Vec2::new(0.5 + cell * i as f32, 0.5 + cell * j as f32);
+            if at.y > at.x + 1.0 {
+                app.world_mut().spawn((
+                    pebble,
+                    StaticCollider,
+                    Transform::from_xyz(at.x, at.y, 0.0),
+                ));
+                pebbles += 1;
+            }
+        }
+    }
+    assert!(pebbles > usize::from(u16::MAX), "{pebbles} pebbles");
+    let v = Vec2::splat(100.0 / DT as f32);
+    let crossing = spawn_ball(&mut app, 0.1, Vec2::ZERO, v, ());
+    let beside = spawn_ball(
+        &mut app,
+        0.1,
+        Vec2::new(50.0, -5.0),
+        Vec2::new(60.0, 0.0),
+        (),
+    );
+    step(&mut app);
+    assert_eq!(
+        toi(&app, crossing),
+        CcdOutcome::Error(CcdError::TooManyCandidates)
+    );
+    // Where the user's integration put it: not stopped, not moved back.
+    let at = position(&app, crossing);
+    assert!((at - Vec2::splat(100.0)).abs().max_element() < 1e-3, "{at}");
+    assert_eq!(toi(&app, beside), CcdOutcome::Clear);
+    assert!((position(&app, beside) - Vec2::new(51.0, -5.0)).length() < 1e-3);
+}
+
 #[test]
 fn nan_velocity_is_invalid_body_data() {
     // The user moves the body kinematically (Push); its Velocity is NaN.

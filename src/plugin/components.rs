@@ -36,7 +36,7 @@ use bevy_transform::components::Transform;
 /// ```
 ///
 /// A body's or a static's uniform world scale scales its collider (a body's mass by its
-/// square, its inertia by its fourth power).
+/// square, its inertia by its fourth power), and a compound body's parts and their offsets.
 ///
 /// A collider is *immutable*: to reshape one, insert a new `Collider` on the entity. The plugin
 /// learns of every insertion and removal from the component's hooks, so it rebuilds its static

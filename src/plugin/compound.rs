@@ -5,15 +5,18 @@
 //! costs nothing new.
 //!
 //! A part's shape is placed in the body frame by the `Transform`s between the body and the
-//! part ([`pose_in`]), scaled by the product of their scales; the body's own scale is not
-//! applied, to its children as to its own collider (a body's `Transform` is its rigid pose).
+//! part ([`pose_in`]), scaled by the product of their scales and the body's uniform world
+//! scale, as a body's own collider is: offsets, shapes and mass are those of the body as drawn
+//! (the body frame the solver sweeps is rigid).
 
 use bevy_ecs::prelude::*;
+use bevy_transform::components::Transform;
 use glam::Vec2;
 
+use super::gather::world_scale;
 use super::hierarchy::{Ancestry, MAX_HIERARCHY_DEPTH, Planar, pose_in};
 use super::outcome::CcdError;
-use super::workspace::{BodyEntry, COMPOUND};
+use super::workspace::{BodyEntry, COMPOUND, CcdWorkspace};
 use super::{CcdEnabled, Collider, CollisionLayers, StaticCollider, StepPoses, usable_mass};
 use crate::geometry::{BodyPart, MassProperties, Pose, ShapeProxy};
 
@@ -43,6 +46,20 @@ pub(crate) struct Compounds {
     found: Vec<Found>,
     /// The last step's compound bodies, while this step's are listed (kept likewise).
     before: Vec<Entity>,
+}
+
+/// `pose`, a part's pose in the frame of a body of uniform world scale `s`, in the rigid body
+/// frame the solver sweeps: its offset and scale times `s` (a scale that cannot be swept
+/// leaves it as it is; the body is refused for it).
+fn at_scale(pose: Planar, s: f32) -> Planar {
+    if s == 1.0 || !(s.is_finite() && s > 0.0) {
+        return pose;
+    }
+    Planar {
+        position: s * pose.position,
+        angle: pose.angle,
+        scale: s * pose.scale,
+    }
 }
 
 /// A part found by [`update_compounds`]: its body, its entity, and its shape and unit mass in
@@ -173,6 +190,18 @@ type PartQuery<'w, 's> = Query<
     (With<ChildOf>, Without<CcdEnabled>, Without<StaticCollider>),
 >;
 
+/// The bodies' query: their own collider, poses and `Transform` (for their world scale).
+type BodyQuery<'w, 's> = Query<
+    'w,
+    's,
+    (
+        Option<&'static Collider>,
+        &'static mut StepPoses,
+        &'static Transform,
+    ),
+    Without<StaticCollider>,
+>;
+
 /// The kinds of entities on the way up: a body, a target.
 type KindQuery<'w, 's> = Query<'w, 's, (Has<CcdEnabled>, Has<StaticCollider>)>;
 
@@ -194,7 +223,8 @@ fn owner(part: Entity, ancestry: &Ancestry, kinds: &KindQuery) -> Option<Entity>
 /// Part of [`CcdStepSystems::RecordEnd`](super::CcdStepSystems::RecordEnd): lists every
 /// compound body and its parts (its own [`Collider`], if any, first; then its descendants'
 /// in entity order), and keeps its [`StepPoses`]' centre of mass and reach the combined ones.
-/// A child collider's [`CollisionLayers`] are its own, else the body's.
+/// A child collider's [`CollisionLayers`] are its own, else the body's. Every part, the body's
+/// own collider too, is placed at the body's uniform world scale ([`at_scale`]).
 ///
 /// Rebuilt each step from the hierarchy as it is, so that a part added, removed, reparented,
 /// moved or reshaped between steps counts from the next step; the work is in proportion to
@@ -205,7 +235,8 @@ pub(crate) fn update_compounds(
     kinds: KindQuery,
     ancestry: Ancestry,
     layers: Query<&CollisionLayers>,
-    mut bodies: Query<(Option<&Collider>, &mut StepPoses), Without<StaticCollider>>,
+    workspace: Res<CcdWorkspace>,
+    mut bodies: BodyQuery,
 ) {
     let compounds = compounds.as_mut();
     if parts.is_empty() && compounds.bodies.is_empty() {
@@ -226,9 +257,17 @@ pub(crate) fn update_compounds(
     entities.clear();
     part_layers.clear();
     found.clear();
+    let frames = &workspace.child_frames;
+    let scale_of = |body, bodies: &BodyQuery| {
+        bodies.get(body).map_or(1.0, |(_, _, transform)| {
+            world_scale(body, transform, frames)
+        })
+    };
     for (part, collider) in &parts {
         if let Some(body) = owner(part, &ancestry, &kinds) {
-            let placed = pose_in(part, Some(body), &ancestry).map(|pose| placed(collider, pose));
+            let s = scale_of(body, &bodies);
+            let placed = pose_in(part, Some(body), &ancestry)
+                .map(|pose| placed(collider, at_scale(pose, s)));
             found.push((body, part, placed));
         }
     }
@@ -238,14 +277,15 @@ pub(crate) fn update_compounds(
         let count = rest.iter().take_while(|f| f.0 == body).count();
         let (group, later) = rest.split_at(count);
         rest = later;
-        let Ok((own, mut poses)) = bodies.get_mut(body) else {
+        let s = scale_of(body, &bodies);
+        let Ok((own, mut poses, _)) = bodies.get_mut(body) else {
             continue;
         };
         let body_layers = layers.get(body).copied().unwrap_or_default();
         let start = shapes.len();
         let mut masses = smallvec::SmallVec::<[MassProperties; 8]>::new();
         if let Some(collider) = own {
-            let (part, mass) = placed(collider, Planar::IDENTITY);
+            let (part, mass) = placed(collider, at_scale(Planar::IDENTITY, s));
             shapes.push(part);
             entities.push(body);
             part_layers.push(body_layers);
@@ -289,7 +329,7 @@ pub(crate) fn update_compounds(
     // A body that lost its last part is its own collider again.
     for &gone in &compounds.before {
         if compounds.find(gone).is_none()
-            && let Ok((Some(collider), mut poses)) = bodies.get_mut(gone)
+            && let Ok((Some(collider), mut poses, _)) = bodies.get_mut(gone)
         {
             super::components::summarize(collider, poses.bypass_change_detection());
         }
@@ -342,7 +382,8 @@ pub(crate) fn body_colliders(
                 continue;
             };
             let layers = layers_of(part).or(layers_of(body)).unwrap_or_default();
-            let shape = placed(collider, local).0.proxy;
+            let s = super::hierarchy::body_scale(transform);
+            let shape = placed(collider, at_scale(local, s)).0.proxy;
             out.push((body, part, pose(transform), shape, layers));
         }
         out.sort_by_key(|item| (item.0, item.1));

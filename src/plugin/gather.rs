@@ -143,18 +143,11 @@ pub(crate) fn list_bodies<'a>(
             }
             continue;
         }
-        // The world scale: the body's own, times its parent's for a child body (a chain with
-        // no world pose has its error from the record passes, whatever this is).
-        let mut scale = body_scale(transform);
-        if !listing.child_frames.is_empty()
-            && let Ok(at) = listing
-                .child_frames
-                .binary_search_by_key(&entity, |(e, _)| *e)
-            && let Ok(frame) = listing.child_frames[at].1
-        {
-            scale *= frame.scale;
-        }
-        let mut entry = BodyEntry::new(entity, &sweep, scale);
+        let scale = world_scale(entity, transform, listing.child_frames);
+        // A compound body's parts, centre of mass and reach are placed at its scale already.
+        let mut entry =
+            BodyEntry::new(entity, &sweep, if compound.is_some() { 1.0 } else { scale });
+        entry.scale = scale;
         if *toi == CcdOutcome::Clear {
             entry.flags |= WAS_CLEAR;
         }
@@ -206,6 +199,25 @@ pub(crate) fn list_bodies<'a>(
     listed
 }
 
+/// A body's uniform world scale: its own ([`body_scale`]), times its parent's for a child body
+/// (`child_frames` of the step, by entity; a chain with no world pose has its error from the
+/// record passes, whatever this is).
+#[inline]
+pub(crate) fn world_scale(
+    entity: Entity,
+    transform: &Transform,
+    child_frames: &[(Entity, Result<Planar, CcdError>)],
+) -> f32 {
+    let mut scale = body_scale(transform);
+    if !child_frames.is_empty()
+        && let Ok(at) = child_frames.binary_search_by_key(&entity, |(e, _)| *e)
+        && let Ok(frame) = child_frames[at].1
+    {
+        scale *= frame.scale;
+    }
+    scale
+}
+
 /// Checks one body's data and completes its entry's sweep, about the centre of mass. The
 /// mass is taken from the collider in the solve, when a [`BodyMass`] gave none and the body
 /// has targets in reach.
@@ -225,9 +237,7 @@ pub(crate) fn fill(body: &mut BodyEntry, limit: f32) -> Result<(), CcdError> {
     if !motion.is_finite() || body.scale.is_nan() {
         return Err(CcdError::NonFiniteTransform);
     }
-    // A compound body's parts are placed and scaled once, when they change, not every step
-    // with the body's scale: such a body must keep the scale 1.
-    if body.scale == 0.0 || (body.flags & COMPOUND != 0 && body.scale != 1.0) {
+    if body.scale == 0.0 {
         return Err(CcdError::UnsupportedTransform);
     }
     // The centre of mass plus the reach about it bounds every point of the shape. A NaN reach
@@ -264,14 +274,14 @@ pub(crate) fn fill(body: &mut BodyEntry, limit: f32) -> Result<(), CcdError> {
 }
 
 /// Gives `body` the candidates `lane.candidates[start..start + count]`; more than `u16::MAX`
-/// (a swept bound across a huge level) is [`CcdError::CoordinatesTooLarge`].
+/// (a swept bound across a huge level) is [`CcdError::TooManyCandidates`].
 fn set_candidates(body: &mut BodyEntry, start: usize, count: usize) {
     body.candidates = start as u32;
     match u16::try_from(count) {
         Ok(count) => body.candidate_count = count,
         Err(_) => {
             body.candidate_count = 0;
-            body.error = Some(CcdError::CoordinatesTooLarge);
+            body.error = Some(CcdError::TooManyCandidates);
         }
     }
 }

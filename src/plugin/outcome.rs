@@ -93,9 +93,13 @@ pub enum CcdError {
     InvalidHierarchy,
     /// A `Transform` on the way to the world is not a planar similarity: a scale that is not
     /// uniform in x and y or not positive, or a rotation out of the plane (for a body's own
-    /// `Transform`, one other than a mirror: a half turn about an axis in the plane); or a
-    /// compound body's world scale is not 1.
+    /// `Transform`, one other than a mirror: a half turn about an axis in the plane).
     UnsupportedTransform,
+    /// The body's swept bound met more than 65,535 targets this step (a body crossing a huge
+    /// level of small statics in one step): it is not swept, left where its user put it, with
+    /// a warning. A shorter step, or the level's small pieces joined into larger colliders,
+    /// keeps a body's candidates fewer.
+    TooManyCandidates,
     /// A [`MovingTarget`](super::MovingTarget) caught the body against another target (or
     /// another mover) and it could not get away within the step: it is left at its last pose
     /// clear of both, where it was struck, at rest. The mover goes on and may overlap it at

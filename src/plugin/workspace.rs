@@ -34,7 +34,7 @@ pub(crate) struct BodyEntry {
     /// This body's candidate targets: `lane.candidates[candidates..candidates + count]`.
     pub(crate) candidates: u32,
     /// At most `u16::MAX` (a body whose swept bound meets more targets is
-    /// [`CcdError::CoordinatesTooLarge`]): two bytes, so that the entry stays 104 bytes.
+    /// [`CcdError::TooManyCandidates`]): two bytes, so that the entry stays 104 bytes.
     pub(crate) candidate_count: u16,
     /// This body's impacts: `lane.impacts[impacts..impacts + impact_count]`.
     pub(crate) impacts: u32,
@@ -47,7 +47,7 @@ pub(crate) struct BodyEntry {
     /// Why the body was not swept, or the time of impact that failed.
     pub(crate) error: Option<CcdError>,
     /// The shape's reach about its centre of mass ([`StepPoses`](super::StepPoses)' copy of the
-    /// collider's, times `scale`).
+    /// collider's, times `scale`; a compound body's parts are placed at its scale already).
     pub(crate) reach: f32,
     /// The body's uniform world scale, which scales its collider and mass (see
     /// [`StepPoses`](super::StepPoses)' copy: 0 or NaN for a `Transform` that cannot be swept).
