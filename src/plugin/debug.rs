@@ -162,7 +162,6 @@ impl DebugFrame {
 /// overwrites) to its resolved pose; the step's impacts; and each crossing where it happened
 /// (the body's pose at the crossing's fraction along the same path, and the point where its
 /// surface met the sensor's). Added to the steps already recorded since the last frame.
-#[allow(clippy::too_many_arguments)]
 fn record_step(
     mut frame: ResMut<DebugFrame>,
     store: Res<GizmoConfigStore>,
@@ -232,9 +231,7 @@ fn record_step(
             };
             let (start, start_angle) = poses.start();
             let (end, end_angle) = poses.resolved();
-            if !(start.is_finite() && end.is_finite() && start_angle.is_finite())
-                || !end_angle.is_finite()
-            {
+            if !(start.is_finite() && end.is_finite()) || !(start_angle + end_angle).is_finite() {
                 continue;
             }
             let shapes = body_shapes(body, collider, &compounds, &mut frame.shapes);
@@ -243,7 +240,8 @@ fn record_step(
                 .push((shapes.0, shapes.1, Pose::new(start, start_angle)));
             // Through the pose at each impact: the end of every stretch but the last.
             let mut at = start;
-            for piece in &pieces[..pieces.len() - 1] {
+            let before_last = pieces.split_last().map_or(&[][..], |(_, before)| before);
+            for piece in before_last {
                 let pose = piece.sweep.pose_at(1.0);
                 if pose.p != at && pose.p.is_finite() {
                     frame.paths.push((at, pose.p));
