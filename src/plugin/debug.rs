@@ -231,7 +231,7 @@ fn record_step(
             };
             let (start, start_angle) = poses.start();
             let (end, end_angle) = poses.resolved();
-            if !(start.is_finite() && end.is_finite()) || !(start_angle + end_angle).is_finite() {
+            if !(start.is_finite() && end.is_finite() && (start_angle + end_angle).is_finite()) {
                 continue;
             }
             let shapes = body_shapes(body, collider, &compounds, &mut frame.shapes);
