@@ -419,8 +419,6 @@ pub(crate) fn sense_lane(
             crossed.push((index, start as u32, (crossings.len() - start) as u32));
         }
     }
-    path.clear();
-    paths.clear();
 }
 
 /// Merges the parts' crossings in `records[start..]` into the body's, in place: in time order

@@ -95,6 +95,7 @@ pub(crate) fn solve<H: CcdHooks + 'static>(
     let step_error = step_error(&config, dt, workspace);
     let compounds: &Compounds = &compounds;
     let step = workspace.step;
+    let keep_paths = workspace.keep_paths;
     let CcdWorkspace {
         statics,
         static_entities,
@@ -118,8 +119,9 @@ pub(crate) fn solve<H: CcdHooks + 'static>(
         clamped: 0,
         child_frames: targets.child_frames,
     };
-    // Checked once a step: without sensors no path is recorded.
+    // Checked once a step: without sensors (or the debug view) no path is recorded.
     let sensors = sensors.any().then_some(&*sensors);
+    let paths = sensors.is_some() || keep_paths;
     // Filled by index, not pushed, so that the lanes already listed can be handed out while
     // the rest is listed; in the steady state the length is already right and this writes
     // nothing. Exactly as many as can be gathered, so that the buffer does not double past
@@ -174,6 +176,7 @@ pub(crate) fn solve<H: CcdHooks + 'static>(
                     settings: &settings,
                     accept: &accept,
                     sensors,
+                    paths,
                     body_layers: &body_layers,
                 };
                 solve_lane(chunk, lane, &shared, &colliders);
@@ -245,14 +248,16 @@ pub(crate) struct Shared<'a> {
     /// The hooks' verdict on an impact of a body (entity, collider): a call through a
     /// pointer only at an impact, never per pair.
     pub(crate) accept: &'a (dyn Fn(Entity, Entity, &CandidateHit) -> bool + Sync),
-    /// The sensors, when the world has any: then each body's path is recorded.
+    /// The sensors, when the world has any.
     pub(crate) sensors: Option<&'a SensorWorld>,
+    /// Each body's path is recorded: the world has sensors, or the debug view draws it.
+    pub(crate) paths: bool,
     /// The bodies' layers.
     pub(crate) body_layers: LayersOf<'a>,
 }
 
-/// Runs `solve` on the body at `index` of the lane, giving it the lane's path buffer when the
-/// world has sensors, and notes the stretch of path it traced.
+/// Runs `solve` on the body at `index` of the lane, giving it the lane's path buffer when
+/// paths are recorded, and notes the stretch of path it traced.
 #[inline(always)]
 fn traced(
     shared: &Shared,
@@ -261,7 +266,7 @@ fn traced(
     solve: impl FnOnce(Option<&mut Vec<PathPiece>>) -> BodyOutcome,
 ) -> BodyOutcome {
     let from = sensing.path.len();
-    let outcome = solve(shared.sensors.map(|_| &mut sensing.path));
+    let outcome = solve(shared.paths.then_some(&mut sensing.path));
     sensing.traced(index, from);
     outcome
 }
@@ -357,6 +362,9 @@ pub(crate) fn solve_lane(
     impacts.clear();
     hit.clear();
     visit.clear();
+    // The last step's paths, kept until now for the debug view.
+    sensing.path.clear();
+    sensing.paths.clear();
     // The shapes of the bodies to solve are read from their colliders in batches: the
     // reads of one batch are independent, so their cache misses overlap instead of each
     // stalling a time of impact.

@@ -119,7 +119,8 @@ pub(crate) struct Lane {
     /// with impacts, errors or overlaps, and those whose outcome was not clear before.
     pub(crate) visit: Vec<u32>,
     pub(crate) scratch: Vec<u32>,
-    /// The paths and crossings of the lane's bodies, when the world has sensors.
+    /// The paths and crossings of the lane's bodies, when the world has sensors (the paths
+    /// also when [`CcdWorkspace::keep_paths`]).
     pub(crate) sensing: Box<SensorLane>,
 }
 
@@ -183,6 +184,9 @@ pub(crate) struct CcdWorkspace {
     /// Steps begun ([`record_start`](super::record::record_start) counts them):
     /// [`StepPoses`] names the one its start was recorded in.
     pub(crate) step: u32,
+    /// Every solved body's path over the step is recorded in its lane (not only when the
+    /// world has sensors), and kept there until the next step: the debug view draws it.
+    pub(crate) keep_paths: bool,
     /// The warnings given once per app ([`Warned`]).
     warned: u8,
 }
