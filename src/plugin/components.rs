@@ -333,9 +333,14 @@ fn poses_inserted(mut world: DeferredWorld, context: HookContext) {
                 let at = world.get_entity(e).ok()?;
                 Some((at.get::<Transform>(), at.get::<ChildOf>()))
             })
-            .map_or((Vec2::NAN, 0.0), |(world, _)| (world.position, world.angle)),
+            .map_or((Vec2::NAN, 0.0, f32::NAN), |(world, _)| {
+                (world.position, world.angle, world.scale)
+            }),
         ),
-        (own, _) => own.map(planar_pose),
+        (own, _) => own.map(|own| {
+            let (position, angle) = planar_pose(own);
+            (position, angle, super::hierarchy::body_scale(own))
+        }),
     };
     let enabled = entity.get::<CcdEnabled>().is_some_and(|e| e.0);
     let step = world
@@ -348,7 +353,8 @@ fn poses_inserted(mut world: DeferredWorld, context: HookContext) {
     if let Some(shape) = shape {
         shape.write(sweep);
     }
-    if let Some((position, angle)) = pose {
+    if let Some((position, angle, scale)) = pose {
+        sweep.scale = scale;
         sweep.start_position = position;
         sweep.start_angle = angle;
         sweep.end_position = position;
@@ -514,6 +520,11 @@ pub struct StepPoses {
     /// validated, but the mass of a huge one can overflow). Kept by the hooks.
     #[reflect(ignore)]
     pub(crate) mass_ok: bool,
+    /// The body's uniform world scale where the user's code left it, recorded with the end
+    /// pose: it scales the collider and the mass. 0 for a `Transform` that does not keep the
+    /// plane, NaN for one that is not finite (see the crate's hierarchy rules).
+    #[reflect(ignore)]
+    pub(crate) scale: f32,
 }
 
 impl StepPoses {

@@ -13,8 +13,7 @@ use bevy_ecs::prelude::*;
 use bevy_transform::components::Transform;
 use glam::Vec2;
 
-use super::gather::world_scale;
-use super::hierarchy::{Ancestry, MAX_HIERARCHY_DEPTH, Planar, pose_in};
+use super::hierarchy::{Ancestry, MAX_HIERARCHY_DEPTH, Planar, body_scale, pose_in};
 use super::outcome::CcdError;
 use super::workspace::{BodyEntry, COMPOUND, CcdWorkspace};
 use super::{CcdEnabled, Collider, CollisionLayers, StaticCollider, StepPoses, usable_mass};
@@ -180,6 +179,25 @@ pub(crate) fn combined_mass(parts: impl Iterator<Item = MassProperties> + Clone)
         center,
         inertia,
     }
+}
+
+/// A body's uniform world scale: its own ([`body_scale`]), times its parent's for a child body
+/// (`child_frames` of the step, by entity; a chain with no world pose has its error from the
+/// record passes, whatever this is).
+#[inline]
+fn world_scale(
+    entity: Entity,
+    transform: &Transform,
+    child_frames: &[(Entity, Result<Planar, CcdError>)],
+) -> f32 {
+    let mut scale = body_scale(transform);
+    if !child_frames.is_empty()
+        && let Ok(at) = child_frames.binary_search_by_key(&entity, |(e, _)| *e)
+        && let Ok(frame) = child_frames[at].1
+    {
+        scale *= frame.scale;
+    }
+    scale
 }
 
 /// The parts' query: colliders under a parent that are neither bodies nor targets.

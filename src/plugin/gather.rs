@@ -3,11 +3,9 @@
 //! the query of the static hierarchy with each swept bound ([`Gather::lane`]).
 
 use bevy_ecs::prelude::*;
-use bevy_transform::components::Transform;
 use glam::Vec2;
 
 use super::compound::Compounds;
-use super::hierarchy::{Planar, body_scale};
 use super::outcome::{CcdError, CcdOutcome};
 use super::workspace::{
     BEYOND_LIMIT, BodyEntry, COLLIDER_MASS_OK, COMPOUND, HAS_LAYERS, HAS_MASS, HAS_VELOCITY, Lane,
@@ -74,7 +72,6 @@ pub(crate) type ListQuery<'w, 's> = Query<
         Option<&'static Friction>,
         Option<&'static BodyMass>,
         Option<&'static CollisionLayers>,
-        &'static Transform,
     ),
     Without<StaticCollider>,
 >;
@@ -85,11 +82,6 @@ pub(crate) struct Listing<'c> {
     pub(crate) step: u32,
     pub(crate) compounds: &'c Compounds,
     pub(crate) clamped: u8,
-    /// This step's child bodies' parent poses ([`CcdWorkspace::child_frames`]): their world
-    /// scale is their parent's times their own.
-    ///
-    /// [`CcdWorkspace::child_frames`]: super::workspace::CcdWorkspace::child_frames
-    pub(crate) child_frames: &'c [(Entity, Result<Planar, CcdError>)],
 }
 
 /// The listing of the solve: a serial pass in query order (deterministic for a given
@@ -109,18 +101,8 @@ pub(crate) fn list_bodies<'a>(
 ) -> usize {
     let mut rest = slots;
     let (mut listed, mut in_lane) = (0, 0);
-    for (
-        entity,
-        mut sweep,
-        mut toi,
-        has_collider,
-        velocity,
-        restitution,
-        friction,
-        mass,
-        layers,
-        transform,
-    ) in bodies
+    for (entity, mut sweep, mut toi, has_collider, velocity, restitution, friction, mass, layers) in
+        bodies
     {
         let swept = sweep.recorded && sweep.recorded_in == listing.step;
         // Checked once per step: with no compound body, no body looks itself up.
@@ -143,8 +125,9 @@ pub(crate) fn list_bodies<'a>(
             }
             continue;
         }
-        let scale = world_scale(entity, transform, listing.child_frames);
-        // A compound body's parts, centre of mass and reach are placed at its scale already.
+        // Its world scale, recorded with its end pose. A compound body's parts, centre of mass
+        // and reach are placed at its scale already.
+        let scale = sweep.scale;
         let mut entry =
             BodyEntry::new(entity, &sweep, if compound.is_some() { 1.0 } else { scale });
         entry.scale = scale;
@@ -197,25 +180,6 @@ pub(crate) fn list_bodies<'a>(
         done(&mut core::mem::take(&mut rest)[..in_lane]);
     }
     listed
-}
-
-/// A body's uniform world scale: its own ([`body_scale`]), times its parent's for a child body
-/// (`child_frames` of the step, by entity; a chain with no world pose has its error from the
-/// record passes, whatever this is).
-#[inline]
-pub(crate) fn world_scale(
-    entity: Entity,
-    transform: &Transform,
-    child_frames: &[(Entity, Result<Planar, CcdError>)],
-) -> f32 {
-    let mut scale = body_scale(transform);
-    if !child_frames.is_empty()
-        && let Ok(at) = child_frames.binary_search_by_key(&entity, |(e, _)| *e)
-        && let Ok(frame) = child_frames[at].1
-    {
-        scale *= frame.scale;
-    }
-    scale
 }
 
 /// Checks one body's data and completes its entry's sweep, about the centre of mass. The

@@ -10,7 +10,7 @@
 use bevy_ecs::change_detection::Tick;
 use bevy_ecs::prelude::*;
 use bevy_transform::components::Transform;
-use glam::Vec2;
+use glam::{Vec2, Vec3};
 
 use super::CcdError;
 
@@ -181,6 +181,16 @@ pub(crate) fn body_pose<'a>(
 #[inline]
 pub(crate) fn body_scale(transform: &Transform) -> f32 {
     let (q, s) = (transform.rotation, transform.scale);
+    // Most bodies of a 2D game: unit scale and a turn about z alone, which the general test
+    // below passes too (the tilt is 0; the length is that of `(q.z, q.w)`).
+    if s == Vec3::ONE
+        && q.x == 0.0
+        && q.y == 0.0
+        && q.z * q.z + q.w * q.w >= f32::MIN_POSITIVE
+        && transform.translation.z.is_finite()
+    {
+        return 1.0;
+    }
     if !(transform.translation.z.is_finite() && s.is_finite()) {
         return f32::NAN;
     }

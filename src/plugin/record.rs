@@ -12,7 +12,7 @@ use glam::Vec2;
 use smallvec::SmallVec;
 
 use super::components::pose_of;
-use super::hierarchy::{Ancestry, TickedAncestry, body_pose, chain_moved_since};
+use super::hierarchy::{Ancestry, TickedAncestry, body_pose, body_scale, chain_moved_since};
 use super::parallel::{MAX_ITEMS, hand_out, pool, workers};
 use super::workspace::CcdWorkspace;
 use super::{CcdConfig, CcdEnabled, StaticCollider, StepPoses, Velocity};
@@ -209,7 +209,8 @@ pub(crate) fn record_end(
 ) {
     let dt = step_length(&config, time.as_deref());
     let record = |transform: &Transform, sweep: &mut StepPoses, velocity: Option<&Velocity>| {
-        record_end_pose(|| pose_of(transform), sweep, velocity, dt);
+        let pose = || pose_of(transform).map(|pose| (pose, body_scale(transform)));
+        record_end_pose(pose, sweep, velocity, dt);
     };
     let frames = &mut workspace.child_frames;
     for (entity, transform, mut sweep, velocity, parent) in &mut children {
@@ -220,7 +221,7 @@ pub(crate) fn record_end(
         let pose = body_pose(transform, parent.parent(), |e| ancestry.get(e).ok());
         let world = pose
             .ok()
-            .map(|(world, _)| (world.position, wrap_angle(world.angle)));
+            .map(|(world, _)| ((world.position, wrap_angle(world.angle)), world.scale));
         record_end_pose(|| world, sweep, velocity, dt);
         frames.push((entity, pose.map(|(_, frame)| frame)));
     }
@@ -237,11 +238,12 @@ type RootBodies<'w, 's, D> = Query<'w, 's, D, (Without<StaticCollider>, Without<
 /// The body query of a record pass's child bodies (those with a `ChildOf`).
 type ChildBodies<'w, 's, D> = Query<'w, 's, D, (Without<StaticCollider>, With<ChildOf>)>;
 
-/// The end pose of one recorded body, from `pose` (its world pose, `None` when it has none),
-/// unwrapped against its start with its velocity over `dt` ([`record_end`]).
+/// The end pose of one recorded body, from `pose` (its world pose and uniform world scale,
+/// `None` when it has no pose), unwrapped against its start with its velocity over `dt`
+/// ([`record_end`]).
 #[inline]
 fn record_end_pose(
-    pose: impl FnOnce() -> Option<(Vec2, f32)>,
+    pose: impl FnOnce() -> Option<((Vec2, f32), f32)>,
     sweep: &mut StepPoses,
     velocity: Option<&Velocity>,
     dt: f32,
@@ -250,12 +252,13 @@ fn record_end_pose(
         if !sweep.recorded {
             return;
         }
-        let Some((p, a)) = pose() else {
+        let Some(((p, a), scale)) = pose() else {
             sweep.end_position = Vec2::NAN;
             sweep.resolved_valid = false;
             return;
         };
         sweep.end_position = p;
+        sweep.scale = scale;
         let delta = turn(sweep.start_angle, a, velocity.map(|v| v.angular), dt);
         sweep.end_angle = sweep.start_angle + delta;
         // Where the step leaves the body unless it hits something or fails, which the

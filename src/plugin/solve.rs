@@ -117,7 +117,6 @@ pub(crate) fn solve<H: CcdHooks + 'static>(
         step,
         compounds,
         clamped: 0,
-        child_frames: targets.child_frames,
     };
     // Checked once a step: without sensors (or the debug view) no path is recorded.
     let sensors = sensors.any().then_some(&*sensors);
