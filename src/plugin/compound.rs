@@ -1,8 +1,9 @@
 //! Compound bodies: the colliders on a body's descendants (reached through entities that are
-//! neither bodies nor targets) belong to it and move with it rigidly. [`update_compounds`]
-//! gathers them each step into [`Compounds`], with the combined mass properties and reach the
-//! solve and the broad phase need; a body without such descendants is not listed there and
-//! costs nothing new.
+//! neither bodies nor targets) belong to it and move with it rigidly. Which body each one
+//! belongs to is kept as the hierarchy changes ([`PartOf`](super::PartOf), by the observers of
+//! [`parts`](super::parts)); [`update_compounds`] places each body's parts every step into
+//! [`Compounds`], with the combined mass properties and reach the solve and the broad phase
+//! need; a body without parts is not listed there and costs nothing new.
 //!
 //! A part's shape is placed in the body frame by the `Transform`s between the body and the
 //! part ([`pose_in`]), scaled by the product of their scales and the body's uniform world
@@ -13,10 +14,13 @@ use bevy_ecs::prelude::*;
 use bevy_transform::components::Transform;
 use glam::Vec2;
 
-use super::hierarchy::{Ancestry, MAX_HIERARCHY_DEPTH, Planar, body_scale, pose_in};
+use super::hierarchy::{Ancestry, Planar, body_scale, pose_in};
 use super::outcome::CcdError;
+use super::parts::BodyParts;
+#[cfg(any(test, feature = "testing"))]
+use super::parts::{Kind, owner_of};
 use super::workspace::{BodyEntry, COMPOUND, CcdWorkspace};
-use super::{CcdEnabled, Collider, CollisionLayers, StaticCollider, StepPoses, usable_mass};
+use super::{Collider, CollisionLayers, StaticCollider, StepPoses, usable_mass};
 use crate::geometry::{BodyPart, MassProperties, Pose, ShapeProxy};
 
 /// The parts of one compound body: `Compounds::parts[start..start + count]`.
@@ -200,19 +204,13 @@ fn world_scale(
     scale
 }
 
-/// The parts' query: colliders under a parent that are neither bodies nor targets.
-type PartQuery<'w, 's> = Query<
-    'w,
-    's,
-    (Entity, &'static Collider),
-    (With<ChildOf>, Without<CcdEnabled>, Without<StaticCollider>),
->;
-
-/// The bodies' query: their own collider, poses and `Transform` (for their world scale).
+/// The bodies' query: their parts, own collider, poses and `Transform` (for their world
+/// scale).
 type BodyQuery<'w, 's> = Query<
     'w,
     's,
     (
+        Option<&'static BodyParts>,
         Option<&'static Collider>,
         &'static mut StepPoses,
         &'static Transform,
@@ -220,44 +218,28 @@ type BodyQuery<'w, 's> = Query<
     Without<StaticCollider>,
 >;
 
-/// The kinds of entities on the way up: a body, a target.
-type KindQuery<'w, 's> = Query<'w, 's, (Has<CcdEnabled>, Has<StaticCollider>)>;
-
-/// The body a part belongs to: its nearest ancestor that is a body, unless a target comes
-/// first (or none does).
-fn owner(part: Entity, ancestry: &Ancestry, kinds: &KindQuery) -> Option<Entity> {
-    let mut at = part;
-    for _ in 0..MAX_HIERARCHY_DEPTH {
-        let parent = ancestry.get(at).ok()?.1?.parent();
-        match kinds.get(parent) {
-            Ok((true, false)) => return Some(parent),
-            Ok((_, true)) => return None,
-            _ => at = parent,
-        }
-    }
-    None
-}
-
 /// Part of [`CcdStepSystems::RecordEnd`](super::CcdStepSystems::RecordEnd): lists every
-/// compound body and its parts (its own [`Collider`], if any, first; then its descendants'
-/// in entity order), and keeps its [`StepPoses`]' centre of mass and reach the combined ones.
-/// A child collider's [`CollisionLayers`] are its own, else the body's. Every part, the body's
-/// own collider too, is placed at the body's uniform world scale ([`at_scale`]).
+/// compound body (one with [`BodyParts`]) and its parts (its own [`Collider`], if any, first;
+/// then its child colliders in entity order), and keeps its [`StepPoses`]' centre of mass and
+/// reach the combined ones. A child collider's [`CollisionLayers`] are its own, else the
+/// body's. Every part, the body's own collider too, is placed at the body's uniform world scale
+/// ([`at_scale`]).
 ///
-/// Rebuilt each step from the hierarchy as it is, so that a part added, removed, reparented,
-/// moved or reshaped between steps counts from the next step; the work is in proportion to
-/// the parts, none without any.
+/// Which body a collider belongs to is kept by the observers of [`parts`](super::parts) as
+/// the hierarchy changes; the parts' shapes are placed again each step, so that a part moved
+/// or reshaped between steps counts from the next step. The work is in proportion to the
+/// parts, none without any.
 pub(crate) fn update_compounds(
     mut compounds: ResMut<Compounds>,
-    parts: PartQuery,
-    kinds: KindQuery,
+    owners: Query<Entity, (With<BodyParts>, Without<StaticCollider>)>,
+    part_colliders: Query<&Collider>,
     ancestry: Ancestry,
     layers: Query<&CollisionLayers>,
     workspace: Res<CcdWorkspace>,
     mut bodies: BodyQuery,
 ) {
     let compounds = compounds.as_mut();
-    if parts.is_empty() && compounds.bodies.is_empty() {
+    if owners.is_empty() && compounds.bodies.is_empty() {
         return;
     }
     let Compounds {
@@ -276,14 +258,15 @@ pub(crate) fn update_compounds(
     part_layers.clear();
     found.clear();
     let frames = &workspace.child_frames;
-    let scale_of = |body, bodies: &BodyQuery| {
-        bodies.get(body).map_or(1.0, |(_, _, transform)| {
-            world_scale(body, transform, frames)
-        })
-    };
-    for (part, collider) in &parts {
-        if let Some(body) = owner(part, &ancestry, &kinds) {
-            let s = scale_of(body, &bodies);
+    for body in &owners {
+        let Ok((Some(parts), _, _, transform)) = bodies.get(body) else {
+            continue;
+        };
+        let s = world_scale(body, transform, frames);
+        for part in parts.iter() {
+            let Ok(collider) = part_colliders.get(part) else {
+                continue;
+            };
             let placed = pose_in(part, Some(body), &ancestry)
                 .map(|pose| placed(collider, at_scale(pose, s)));
             found.push((body, part, placed));
@@ -295,10 +278,10 @@ pub(crate) fn update_compounds(
         let count = rest.iter().take_while(|f| f.0 == body).count();
         let (group, later) = rest.split_at(count);
         rest = later;
-        let s = scale_of(body, &bodies);
-        let Ok((own, mut poses, _)) = bodies.get_mut(body) else {
+        let Ok((_, own, mut poses, transform)) = bodies.get_mut(body) else {
             continue;
         };
+        let s = world_scale(body, transform, frames);
         let body_layers = layers.get(body).copied().unwrap_or_default();
         let start = shapes.len();
         let mut masses = smallvec::SmallVec::<[MassProperties; 8]>::new();
@@ -347,7 +330,7 @@ pub(crate) fn update_compounds(
     // A body that lost its last part is its own collider again.
     for &gone in &compounds.before {
         if compounds.find(gone).is_none()
-            && let Ok((Some(collider), mut poses, _)) = bodies.get_mut(gone)
+            && let Ok((_, Some(collider), mut poses, _)) = bodies.get_mut(gone)
         {
             super::components::summarize(collider, poses.bypass_change_detection());
         }
@@ -361,6 +344,7 @@ pub(crate) fn update_compounds(
 pub(crate) fn body_colliders(
     world: &mut World,
 ) -> Vec<(Entity, Entity, Pose, ShapeProxy, CollisionLayers)> {
+    use super::CcdEnabled;
     use bevy_ecs::system::RunSystemOnce;
     use bevy_transform::components::Transform;
     type Own<'w, 's> = Query<
@@ -369,9 +353,20 @@ pub(crate) fn body_colliders(
         (Entity, &'static Collider, &'static Transform),
         (With<CcdEnabled>, Without<StaticCollider>),
     >;
+    /// Each entity's kind ([`owner_of`]).
+    type Kinds<'w, 's> = Query<
+        'w,
+        's,
+        (
+            Has<CcdEnabled>,
+            Has<StaticCollider>,
+            Has<Collider>,
+            Option<&'static ChildOf>,
+        ),
+    >;
     let read = |own: Own,
-                parts: PartQuery,
-                kinds: KindQuery,
+                parts: Query<(Entity, &Collider), With<ChildOf>>,
+                kinds: Kinds,
                 ancestry: Ancestry,
                 transforms: Query<&Transform>,
                 layers: Query<&CollisionLayers>| {
@@ -391,7 +386,17 @@ pub(crate) fn body_colliders(
             })
             .collect();
         for (part, collider) in &parts {
-            let Some(body) = owner(part, &ancestry, &kinds) else {
+            let kind_of = |e| {
+                let (body, target, collider, parent) = kinds.get(e).ok()?;
+                let parent = parent.map(ChildOf::parent);
+                Some(Kind {
+                    body,
+                    target,
+                    collider,
+                    parent,
+                })
+            };
+            let Some(body) = owner_of(part, kind_of) else {
                 continue;
             };
             let (Ok(local), Ok(transform)) =

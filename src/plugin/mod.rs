@@ -21,6 +21,7 @@ mod impacts;
 mod layers;
 mod outcome;
 mod parallel;
+mod parts;
 mod query;
 mod record;
 mod sensors;
@@ -52,6 +53,7 @@ pub use hierarchy::MAX_HIERARCHY_DEPTH;
 pub use hooks::{CcdHooks, ImpactCandidate, OneWayPlatform, OneWayPlatforms};
 pub use layers::CollisionLayers;
 pub use outcome::{CcdError, CcdImpact, CcdOutcome, Hits};
+pub use parts::{BodyParts, PartOf};
 pub use query::{CastFilter, CastHit, Slide, StaticQuery};
 pub use sensors::{CcdSensorCrossing, Sensor};
 use workspace::CcdWorkspace;
@@ -272,6 +274,7 @@ impl Plugin for CcdPlugin {
                     .in_set(CcdStepSystems::Impacts),
             ),
         );
+        parts::observe_parts(app);
         (self.add_solve)(app);
     }
 }
