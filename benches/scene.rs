@@ -17,7 +17,10 @@
 //!                                   # SCENE_SPEEDUP=1: three paired 1-vs-2-thread ratios,
 //!                                   # step by step and in blocks; SCENE_SPEEDUP_BLOCK and
 //!                                   # SCENE_SPEEDUP_DROP: other block lengths and drops;
-//!                                   # SCENE_LAYERS=1: 32 layers in use and a hook)
+//!                                   # SCENE_LAYERS=1: 32 layers in use and a hook;
+//!                                   # SCENE_PROFILE_MOVERS=k: k of the statics moving)
+//! SCENE_MOVERS=1 ...  # only the movers' cost: 10k bodies x 100k statics + 1k movers, and
+//!                     # one of 100k statics moving, each against the level all static
 //! ```
 //!
 //! The machine this runs on drifts by more than the targets' margins over minutes, so each
@@ -136,6 +139,8 @@ struct Ours {
     )>,
     /// Put bodies back as a teleport (`SCENE_TELEPORT=1`) rather than as a game loop.
     teleport: bool,
+    /// Moving targets ([`Ours::with_movers`]) and their poses at the start and end of the step.
+    movers: Vec<(Entity, Transform, Transform)>,
 }
 
 /// Seconds: [total, record (start + end), static hierarchy update, solve (broad phase, time of
@@ -210,10 +215,40 @@ impl Ours {
             end,
             query,
             teleport: std::env::var_os("SCENE_TELEPORT").is_some(),
+            movers: Vec::new(),
         };
         // First step builds the static hierarchy and grows the buffers.
         ours.step();
         ours
+    }
+
+    /// Makes `count` of the level's statics (spread evenly, the outer walls kept still) moving
+    /// targets: each slides 2 m/s in its own direction and turns a turn a second over the step,
+    /// put back at its start before every step as the bodies are.
+    fn with_movers(mut self, count: usize) -> Self {
+        let world = self.app.world_mut();
+        let statics: Vec<Entity> = world
+            .query_filtered::<Entity, With<StaticCollider>>()
+            .iter(world)
+            .collect();
+        let inner = &statics[4.min(statics.len())..];
+        let every = (inner.len() / count.max(1)).max(1);
+        for (i, &e) in inner.iter().step_by(every).take(count).enumerate() {
+            // Directions a golden angle apart.
+            let direction = i as f32 * 2.399_963;
+            let velocity = Velocity {
+                linear: 2.0 * Vec2::new(direction.cos(), direction.sin()),
+                angular: std::f32::consts::TAU,
+            };
+            let start = *world.get::<Transform>(e).expect("a static has a Transform");
+            let (p, a) = bevy_ccd::testing::planar_pose(&start);
+            let end = transform(p + velocity.linear * DT, a + velocity.angular * DT);
+            world.entity_mut(e).insert((MovingTarget, velocity));
+            self.movers.push((e, start, end));
+        }
+        // The marker rebuilds the hierarchy once, with the movers kept out of it.
+        self.step();
+        self
     }
 
     fn configure(&mut self, resolution: Resolution, parallel: bool) {
@@ -245,12 +280,18 @@ impl Ours {
             }
             *vel = *v;
         }
+        for (e, start, _) in &self.movers {
+            *world.get_mut::<Transform>(*e).expect("a mover") = *start;
+        }
         let t0 = Instant::now();
         world.run_schedule(FixedFirst);
         let a = t0.elapsed().as_secs_f64();
         for (e, t) in self.bodies.iter().zip(&self.end) {
             let (mut tr, _, _) = self.query.get_mut(world, *e).expect("body exists");
             *tr = *t;
+        }
+        for (e, _, end) in &self.movers {
+            *world.get_mut::<Transform>(*e).expect("a mover") = *end;
         }
         let t1 = Instant::now();
         world.run_schedule(FixedPostUpdate);
@@ -288,276 +329,9 @@ impl Ours {
 
 const LINEAR_SLOP: f32 = bevy_ccd::geometry::LINEAR_SLOP;
 
-// ---------------------------------------------------------------------------------------
-// Peers
-// ---------------------------------------------------------------------------------------
-
-mod peers {
-    use super::*;
-
-    pub trait Peer {
-        fn reset(&mut self);
-        fn step(&mut self);
-        /// Every body's position, in level order.
-        fn positions(&mut self) -> Vec<Vec2>;
-    }
-
-    pub struct Box2d {
-        world: boxdd::World,
-        bodies: Vec<boxdd::BodyId>,
-        start: Vec<(Vec2, f32, Vec2, f32)>,
-    }
-
-    fn bv(v: Vec2) -> boxdd::Vec2 {
-        boxdd::Vec2::new(v.x, v.y)
-    }
-
-    /// Box2D's hull drops points closer than 2 slops to a line, so 1 cm rectangles fail
-    /// `from_points`; they are centred rectangles, so build them as boxes then.
-    fn poly(
-        body: &mut boxdd::Body<'_>,
-        def: &boxdd::ShapeDef,
-        pts: &[Vec2],
-        radius: f32,
-    ) -> boxdd::Result<()> {
-        if body
-            .create_polygon_from_points(def, pts.iter().map(|p| bv(*p)), radius)
-            .is_err()
-        {
-            let hx = pts.iter().map(|p| p.x.abs()).fold(0.0, f32::max);
-            let hy = pts.iter().map(|p| p.y.abs()).fold(0.0, f32::max);
-            body.create_polygon(def, &boxdd::shapes::rounded_box_polygon(hx, hy, radius)?)?;
-        }
-        Ok(())
-    }
-
-    /// Box2D with its continuous collision on or off. Continuous collision against statics is
-    /// a world switch in Box2D v3; `bullet` also makes every body a bullet (continuous against
-    /// other bodies too, solved in a later stage), which these bodies, filtered to hit statics
-    /// only, do not need: both are measured and the cheaper is the one compared.
-    pub fn box2d(
-        f: &'static boxdd::Foundation,
-        level: &Level,
-        ccd: bool,
-        bullet: bool,
-    ) -> boxdd::Result<Box2d> {
-        use boxdd::{BodyBuilder, BodyType, Filter, Position, ShapeDef, WorldBuilder};
-        let mut world = f.create_world(
-            WorldBuilder::from(f.world_def())
-                .gravity(boxdd::Vec2::new(0.0, 0.0))
-                .enable_continuous(ccd)
-                .enable_sleep(false)
-                .maximum_linear_speed(1000.0)
-                .worker_count(boxdd::WorkerCount::new(1)?)
-                .build()?,
-        )?;
-        // Bodies collide with statics only, as in bevy_ccd (no body-body contacts).
-        let static_filter = Filter {
-            category_bits: 2,
-            mask_bits: 1,
-            group_index: 0,
-        };
-        let body_filter = Filter {
-            category_bits: 1,
-            mask_bits: 2,
-            group_index: 0,
-        };
-        let static_def = ShapeDef::builder().filter(static_filter).build()?;
-        for s in &level.statics {
-            let id = world.create_body(
-                BodyBuilder::from(f.body_def())
-                    .body_type(BodyType::Static)
-                    .position(Position::new(s.position.x, s.position.y))
-                    .angle(s.angle)
-                    .build()?,
-            )?;
-            let proxy = s.collider.proxy();
-            poly(
-                &mut world.body(id)?,
-                &static_def,
-                proxy.points(),
-                proxy.radius,
-            )?;
-        }
-        let mut bodies = Vec::with_capacity(level.bodies.len());
-        let mut start = Vec::with_capacity(level.bodies.len());
-        for b in &level.bodies {
-            let id = world.create_body(
-                BodyBuilder::from(f.body_def())
-                    .body_type(BodyType::Dynamic)
-                    .position(Position::new(b.position.x, b.position.y))
-                    .angle(b.angle)
-                    .linear_velocity(bv(b.velocity.linear))
-                    .angular_velocity(b.velocity.angular)
-                    .bullet(ccd && bullet)
-                    .allow_fast_rotation(true)
-                    .enable_sleep(false)
-                    .build()?,
-            )?;
-            let def = ShapeDef::builder()
-                .density(1.0)
-                .material(
-                    boxdd::SurfaceMaterial::new()
-                        .with_friction(b.friction)?
-                        .with_restitution(b.restitution)?,
-                )
-                .filter(body_filter)
-                .build()?;
-            let proxy = b.collider.proxy();
-            let pts = proxy.points();
-            let mut body = world.body(id)?;
-            match pts.len() {
-                1 => {
-                    body.create_circle(
-                        &def,
-                        &boxdd::shapes::Circle::new(bv(pts[0]), proxy.radius)?,
-                    )?;
-                }
-                2 => {
-                    body.create_capsule_between(&def, bv(pts[0]), bv(pts[1]), proxy.radius)?;
-                }
-                _ => {
-                    poly(&mut body, &def, pts, proxy.radius)?;
-                }
-            }
-            let _ = body;
-            bodies.push(id);
-            start.push((b.position, b.angle, b.velocity.linear, b.velocity.angular));
-        }
-        Ok(Box2d {
-            world,
-            bodies,
-            start,
-        })
-    }
-
-    impl Peer for Box2d {
-        fn reset(&mut self) {
-            for (id, (p, a, v, w)) in self.bodies.iter().zip(&self.start) {
-                let mut b = self.world.body(*id).expect("body");
-                b.set_position_and_rotation(boxdd::Position::new(p.x, p.y), *a)
-                    .expect("pose");
-                b.set_linear_velocity(bv(*v)).expect("velocity");
-                b.set_angular_velocity(*w).expect("spin");
-            }
-        }
-        fn positions(&mut self) -> Vec<Vec2> {
-            self.bodies
-                .iter()
-                .map(|id| {
-                    let p = self
-                        .world
-                        .body(*id)
-                        .expect("body")
-                        .position()
-                        .expect("pose");
-                    Vec2::new(p.x, p.y)
-                })
-                .collect()
-        }
-        fn step(&mut self) {
-            let _ = self.world.step(DT, 4).expect("step");
-        }
-    }
-
-    pub struct Rapier {
-        world: rapier2d::prelude::PhysicsWorld,
-        bodies: Vec<rapier2d::prelude::RigidBodyHandle>,
-        start: Vec<(Vec2, f32, Vec2, f32)>,
-    }
-
-    /// Rapier with its continuous collision on or off. In Rapier 0.35 every fast dynamic body
-    /// sweeps the fixed colliders whatever its `ccd_enabled` flag (which only widens the sweep
-    /// to other bodies); the world switch is `max_ccd_substeps`, 0 turning all of it off. So
-    /// "off" here is `max_ccd_substeps = 0`, and "on" the default of 1, with `ccd_enabled` set
-    /// when `all_bodies` asks for the wider sweep as well.
-    pub fn rapier(level: &Level, ccd: bool, all_bodies: bool) -> Rapier {
-        use rapier2d::math::{Pose, Vector};
-        use rapier2d::prelude::*;
-        let rv = |v: Vec2| Vector::new(v.x, v.y);
-        let mut world = PhysicsWorld::new();
-        world.gravity = Vector::ZERO;
-        world.integration_parameters.dt = DT;
-        if !ccd {
-            world.integration_parameters.max_ccd_substeps = 0;
-        }
-        let static_groups =
-            InteractionGroups::new(Group::GROUP_2, Group::GROUP_1, InteractionTestMode::And);
-        let body_groups =
-            InteractionGroups::new(Group::GROUP_1, Group::GROUP_2, InteractionTestMode::And);
-        for s in &level.statics {
-            let h = world
-                .bodies
-                .insert(RigidBodyBuilder::fixed().pose(Pose::new(rv(s.position), s.angle)));
-            let points = s.collider.proxy().points().iter().map(|p| rv(*p)).collect();
-            let c = ColliderBuilder::convex_polyline(points)
-                .expect("convex static")
-                .collision_groups(static_groups);
-            world.colliders.insert_with_parent(c, h, &mut world.bodies);
-        }
-        let mut bodies = Vec::new();
-        let mut start = Vec::new();
-        for b in &level.bodies {
-            let h = world.bodies.insert(
-                RigidBodyBuilder::dynamic()
-                    .pose(Pose::new(rv(b.position), b.angle))
-                    .linvel(rv(b.velocity.linear))
-                    .angvel(b.velocity.angular)
-                    .ccd_enabled(ccd && all_bodies)
-                    .can_sleep(false),
-            );
-            let proxy = b.collider.proxy();
-            let pts = proxy.points();
-            let c = match pts.len() {
-                1 => ColliderBuilder::ball(proxy.radius).translation(rv(pts[0])),
-                2 => ColliderBuilder::capsule_from_endpoints(rv(pts[0]), rv(pts[1]), proxy.radius),
-                _ if proxy.radius > 0.0 => ColliderBuilder::round_convex_polyline(
-                    pts.iter().map(|p| rv(*p)).collect(),
-                    proxy.radius,
-                )
-                .expect("convex body"),
-                _ => ColliderBuilder::convex_polyline(pts.iter().map(|p| rv(*p)).collect())
-                    .expect("convex body"),
-            }
-            .density(1.0)
-            .friction(b.friction)
-            .restitution(b.restitution)
-            .collision_groups(body_groups);
-            world.colliders.insert_with_parent(c, h, &mut world.bodies);
-            bodies.push(h);
-            start.push((b.position, b.angle, b.velocity.linear, b.velocity.angular));
-        }
-        Rapier {
-            world,
-            bodies,
-            start,
-        }
-    }
-
-    impl Peer for Rapier {
-        fn reset(&mut self) {
-            use rapier2d::math::{Pose, Vector};
-            for (h, (p, a, v, w)) in self.bodies.iter().zip(&self.start) {
-                let b = &mut self.world.bodies[*h];
-                b.set_position(Pose::new(Vector::new(p.x, p.y), *a), true);
-                b.set_linvel(Vector::new(v.x, v.y), true);
-                b.set_angvel(*w, true);
-            }
-        }
-        fn step(&mut self) {
-            self.world.step();
-        }
-        fn positions(&mut self) -> Vec<Vec2> {
-            self.bodies
-                .iter()
-                .map(|h| {
-                    let t = self.world.bodies[*h].translation();
-                    Vec2::new(t.x, t.y)
-                })
-                .collect()
-        }
-    }
-}
+// The peers (Box2D and Rapier) on the same level: `peers.rs`, shared with the movers bench.
+#[allow(dead_code)] // The movers bench drives movers; this one does not.
+mod peers;
 
 use peers::Peer;
 
@@ -789,7 +563,8 @@ fn pair_stats(lvl: &Level) {
 
 /// `SCENE_PROFILE=clamp|substep`: only step our 10k-body, 1k-static scene on one thread, for a
 /// profiler (`perf record`), and print the phase medians. `SCENE_PROFILE_N` and
-/// `SCENE_PROFILE_M` change the body and static counts.
+/// `SCENE_PROFILE_M` change the body and static counts; `SCENE_PROFILE_MOVERS=k` makes `k` of
+/// the statics moving targets ([`Ours::with_movers`]).
 fn profile(mode: &str) {
     let resolution = match mode {
         "substep" => Resolution::SubStep { max_substeps: 4 },
@@ -812,7 +587,7 @@ fn profile(mode: &str) {
     if std::env::var_os("SCENE_PAIR_STATS").is_some() {
         pair_stats(&lvl);
     }
-    let mut ours = Ours::new(&lvl, true);
+    let mut ours = Ours::new(&lvl, true).with_movers(size("SCENE_PROFILE_MOVERS", 0));
     if std::env::var_os("SCENE_SPEEDUP").is_some() {
         for _ in 0..3 {
             let (speedup, rounds) = paired_speedup(&mut ours, resolution, 1, 0);
@@ -838,7 +613,7 @@ fn profile(mode: &str) {
         resolution,
         std::env::var_os("SCENE_PROFILE_PARALLEL").is_some(),
     );
-    let mut phases: Vec<Phases> = (0..steps).map(|_| ours.step()).collect();
+    let mut phases = profiled_steps(&mut ours, steps);
     if std::env::var_os("SCENE_PROFILE_BARE").is_some() {
         // The same scene without the timestamp systems: the step time as the bench takes it.
         let mut bare = Ours::new(&lvl, false);
@@ -864,6 +639,62 @@ fn profile(mode: &str) {
     }
 }
 
+/// `steps` steps of `ours`, out of line so that an instruction count can take them alone
+/// (`--toggle-collect='*profiled_steps*'`), without the scene's first step, which builds the
+/// static hierarchy.
+#[inline(never)]
+fn profiled_steps(ours: &mut Ours, steps: usize) -> Vec<Phases> {
+    (0..steps).map(|_| ours.step()).collect()
+}
+
+/// `SCENE_MOVERS=1`: the cost of moving targets in a large level, one thread, each mode:
+/// 10,000 bodies among 100,000 statics and 1,000 movers (a level of 101,000 statics, 1,000 of
+/// them moving) against the same level all static, and one of 100,000 statics moving against
+/// none, by criterion and by alternating windows ([`alternating_ratio`]).
+fn movers(c: &mut Criterion) {
+    let n = 10_000;
+    let mut out = String::new();
+    writeln!(
+        out,
+        "| scene | mode | all static ms | with movers ms | criterion ratio | alternating windows |"
+    )
+    .unwrap();
+    writeln!(out, "|---|---|--:|--:|--:|--:|").unwrap();
+    for (m, count) in [(101_000, 1_000), (100_000, 1)] {
+        let lvl = level(n, m);
+        let mut still = Ours::new(&lvl, false);
+        let mut moving = Ours::new(&lvl, false).with_movers(count);
+        for mode in [Resolution::Clamp, Resolution::SubStep { max_substeps: 4 }] {
+            let group = format!("movers/n{n}/m{m}");
+            let mut median_of = |ours: &mut Ours, what: &str| {
+                ours.configure(mode, false);
+                ours.step();
+                let id = format!("{}/{what}", mode_name(mode));
+                median(&mut bench_custom(c, &group, &id, || ours.step()[0]))
+            };
+            let a = median_of(&mut still, "static");
+            let b = median_of(&mut moving, &format!("{count}_moving"));
+            let windows = alternating_ratio((&mut still, n), (&mut moving, n), mode);
+            writeln!(
+                out,
+                "| {n} × {} + {count} moving | {} | {:.3} | {:.3} | {:.3} | {windows:.3} |",
+                m - count,
+                mode_name(mode),
+                a * 1e3,
+                b * 1e3,
+                b / a
+            )
+            .unwrap();
+            let (imp, _, err) = moving.outcome();
+            eprintln!(
+                "{count} movers, {}: {imp} impacts, {err} errors",
+                mode_name(mode)
+            );
+        }
+    }
+    println!("\n{out}");
+}
+
 /// The compute task pool of the "2 threads" runs: one thread fewer than the machine has
 /// cores, as Bevy sizes its pools (the main thread, which runs the plugin's schedules and
 /// works in their parallel regions, is the other worker; on 2 cores Bevy's defaults give
@@ -886,6 +717,11 @@ fn main() {
     }
     let quick = std::env::var_os("SCENE_QUICK").is_some();
     let mut c = criterion();
+    if std::env::var_os("SCENE_MOVERS").is_some() {
+        movers(&mut c);
+        c.final_summary();
+        return;
+    }
     let ns: &[usize] = if quick {
         &[1_000, 10_000]
     } else {
@@ -1114,14 +950,14 @@ fn main() {
                 for (k, ccd) in [false, true].into_iter().enumerate() {
                     let t = Instant::now();
                     let mut peer: Box<dyn Peer> = match engine {
-                        "box2d" => {
-                            Box::new(peers::box2d(foundation, &lvl, ccd, false).expect("box2d"))
-                        }
-                        "box2d bullets" => {
-                            Box::new(peers::box2d(foundation, &lvl, ccd, true).expect("box2d"))
-                        }
-                        "rapier" => Box::new(peers::rapier(&lvl, ccd, false)),
-                        _ => Box::new(peers::rapier(&lvl, ccd, true)),
+                        "box2d" => Box::new(
+                            peers::box2d(foundation, &lvl, Vec2::ZERO, ccd, false).expect("box2d"),
+                        ),
+                        "box2d bullets" => Box::new(
+                            peers::box2d(foundation, &lvl, Vec2::ZERO, ccd, true).expect("box2d"),
+                        ),
+                        "rapier" => Box::new(peers::rapier(&lvl, Vec2::ZERO, ccd, false)),
+                        _ => Box::new(peers::rapier(&lvl, Vec2::ZERO, ccd, true)),
                     };
                     // Let the broad phase settle once.
                     peer.reset();

@@ -1,7 +1,9 @@
 //! The main demo, headless: the arena of the containment test (a box of 1 cm walls with
 //! obstacles, 1,000 bodies thrown at 1 to 2,000 m/s with up to three turns per step and
 //! gravity) run with CCD off, on with clamping, and on with sub-stepping. Prints a table and
-//! writes an SVG of a few traces, like the figures of Catto's GDC 2013 talk.
+//! writes an SVG of a few traces, like the figures of Catto's GDC 2013 talk: a tunnelling ball,
+//! the arena, a level's features, and moving targets (a flipper launching a ball at rest, an
+//! elevator carrying a box), each panel drawn from the plugin's run and clipped to its square.
 //!
 //! ```text
 //! cargo run --release --example demo [-- STEPS [SVG_PATH]]
@@ -15,7 +17,9 @@ use bevy_ccd::testing::{
     Gravity, StepFixed, bodies_outside, deepest_penetration, headless_app_with, integrate_velocity,
     moving_app,
 };
-use bevy_ccd_fixtures::{ArenaConfig, arena_app};
+use bevy_ccd_fixtures::{
+    ArenaConfig, Mover, MoverClock, MoverPath, arena_app, drive_movers, spawn_mover,
+};
 use bevy_ecs::prelude::*;
 use bevy_transform::components::Transform;
 use glam::Quat;
@@ -314,29 +318,129 @@ fn level_scene() -> LevelRun {
     run
 }
 
+/// The movers panel's run: each mover's pose (position, angle) and each body's position at
+/// every step, and the impact points.
+struct MoversRun {
+    movers: Vec<(Vec2, Vec<(Vec2, f32)>)>,
+    bodies: Vec<Vec<Vec2>>,
+    hits: Vec<Vec2>,
+}
+
+/// Moving targets (`MovingTarget`), sub-stepping, gravity: a flipper 2 m long spinning 20
+/// turns a second about (-3, 1) strikes a ball (0.1 m) at rest above its right arm and
+/// launches it; an elevator 2 m wide rising at 20 m/s from (3, 0) carries a box (0.6 m, no
+/// bounce) for 0.6 s. The first item of `movers` is the flipper, each with its half extents.
+fn movers_scene() -> MoversRun {
+    let mut app = moving_app(
+        DT,
+        CcdConfig {
+            resolution: Resolution::SubStep { max_substeps: 4 },
+            ..Default::default()
+        },
+        Vec2::new(0.0, -9.81),
+    );
+    app.insert_resource(MoverClock {
+        steps: 0,
+        timestep: DT as f32,
+    })
+    .add_systems(
+        bevy_app::FixedUpdate,
+        drive_movers.before(integrate_velocity),
+    );
+    let hub = Vec2::new(-3.0, 1.0);
+    let (flipper_half, elevator_half) = (Vec2::new(1.0, 0.05), Vec2::new(1.0, 0.1));
+    let world = app.world_mut();
+    let movers = [
+        Mover {
+            collider: Collider::rectangle(flipper_half.x, flipper_half.y).expect("a flipper"),
+            path: MoverPath::Spin {
+                center: hub,
+                spin: 20.0 * std::f32::consts::TAU,
+            },
+        },
+        Mover {
+            collider: Collider::rectangle(elevator_half.x, elevator_half.y).expect("a platform"),
+            path: MoverPath::Slide {
+                from: Vec2::new(3.0, 0.0),
+                velocity: Vec2::new(0.0, 20.0),
+            },
+        },
+    ]
+    .map(|m| spawn_mover(world, &m));
+    let ball = world
+        .spawn((
+            Collider::circle(0.1).expect("a positive radius"),
+            CcdEnabled::default(),
+            Velocity::default(),
+            Transform::from_xyz(hub.x + 0.7, hub.y + 0.2, 0.0),
+        ))
+        .id();
+    let crate_ = world
+        .spawn((
+            Collider::rectangle(0.3, 0.3).expect("positive sizes"),
+            CcdEnabled::default(),
+            Velocity::default(),
+            Restitution(0.0),
+            // Resting on the platform's top, a slop above it.
+            Transform::from_xyz(3.0, elevator_half.y + 0.3 + 0.005, 0.0),
+        ))
+        .id();
+    let pose = |app: &bevy_app::App, e: Entity| {
+        bevy_ccd::testing::planar_pose(app.world().get::<Transform>(e).expect("spawned"))
+    };
+    let mut run = MoversRun {
+        movers: vec![(flipper_half, Vec::new()), (elevator_half, Vec::new())],
+        bodies: vec![Vec::new(), Vec::new()],
+        hits: Vec::new(),
+    };
+    for _ in 0..=36 {
+        for (k, &m) in movers.iter().enumerate() {
+            run.movers[k].1.push(pose(&app, m));
+        }
+        for (k, &b) in [ball, crate_].iter().enumerate() {
+            run.bodies[k].push(pose(&app, b).0);
+        }
+        app.step_fixed(1);
+        for b in [ball, crate_] {
+            if let Some(hit) = app.world().get::<CcdOutcome>(b).and_then(|o| o.first_hit()) {
+                run.hits.push(hit.point);
+            }
+        }
+    }
+    run
+}
+
 fn svg(
     traces: &Traces,
     half: f32,
     off: &(Vec<Vec2>, Option<Vec2>),
     on: &(Vec<Vec2>, Option<Vec2>),
     level: &LevelRun,
+    movers: &MoversRun,
 ) -> String {
     let mut s = String::new();
     let size = 480.0;
     // Each panel's drawing is clipped to its square (in the panel's frame), so that a path
-    // leaving one panel never runs across the next.
+    // leaving one panel never runs across the next; its title goes over it on a white band.
     let panel = |x0: f32, title: &str, s: &mut String| {
         let _ = write!(
             s,
-            r##"<g transform="translate({x0},0)"><rect x="0" y="0" width="{size}" height="{size}" fill="white" stroke="#888"/><text x="10" y="20" font-family="sans-serif" font-size="14">{title}</text><g clip-path="url(#panel)">"##
+            r##"<g transform="translate({x0},0)"><rect x="0" y="0" width="{size}" height="{size}" fill="white" stroke="#888"/><g clip-path="url(#panel)">"##
+        );
+        title.to_string()
+    };
+    let end_panel = |title: String, s: &mut String| {
+        let _ = write!(
+            s,
+            r##"</g><rect x="1" y="1" width="{}" height="27" fill="white" fill-opacity="0.85"/><text x="10" y="20" font-family="sans-serif" font-size="14">{title}</text></g>"##,
+            20.0 + 7.5 * title.chars().count() as f32
         );
     };
-    let end_panel = |s: &mut String| s.push_str("</g></g>");
     let _ = write!(
         s,
         r##"<svg xmlns="http://www.w3.org/2000/svg" width="{}" height="{size}" viewBox="0 0 {} {size}"><defs><clipPath id="panel"><rect x="0" y="0" width="{size}" height="{size}"/></clipPath></defs>"##,
-        4.0 * size + 30.0,
-        4.0 * size + 30.0
+        5.0 * size + 40.0,
+        5.0 * size + 40.0
     );
     // Panels 1 and 2: the falling ball, CCD off and on. World y in [-6, 16], x in [-8, 8].
     for (k, (title, (path, hit))) in [
@@ -347,7 +451,7 @@ fn svg(
     .enumerate()
     {
         let x0 = k as f32 * (size + 10.0);
-        panel(x0, title, &mut s);
+        let title = panel(x0, title, &mut s);
         let map = |p: Vec2| Vec2::new(size * 0.5 + p.x * 22.0, size * 0.75 - p.y * 22.0);
         let a = map(Vec2::new(-3.0, 0.0));
         let b = map(Vec2::new(3.0, 0.0));
@@ -382,11 +486,11 @@ fn svg(
                 c.x, c.y
             );
         }
-        end_panel(&mut s);
+        end_panel(title, &mut s);
     }
     // Panel 3: arena traces with their impacts.
     let x0 = 2.0 * (size + 10.0);
-    panel(x0, "Arena (sub-step): traces and impacts", &mut s);
+    let title = panel(x0, "Arena (sub-step): traces and impacts", &mut s);
     let map = |p: Vec2| {
         Vec2::new(
             size * 0.5 + p.x / half * size * 0.45,
@@ -407,18 +511,11 @@ fn svg(
     for (i, path) in traces.paths.iter().enumerate() {
         polyline(&mut s, path, map, colors[i % colors.len()], 1.0);
     }
-    for h in &traces.hits {
-        let c = map(*h);
-        let _ = write!(
-            s,
-            r##"<circle cx="{}" cy="{}" r="2.5" fill="red"/>"##,
-            c.x, c.y
-        );
-    }
-    end_panel(&mut s);
+    dots(&mut s, &traces.hits, map, 2.5, "red");
+    end_panel(title, &mut s);
     // Panel 4: the level, world x in [-9, 9], y in [-3, 8].
     let x0 = 3.0 * (size + 10.0);
-    panel(
+    let title = panel(
         x0,
         "Level: root (tilted), one-way platform, trigger, ghost wall",
         &mut s,
@@ -426,36 +523,91 @@ fn svg(
     let scale = size / 19.0;
     let map = |p: Vec2| Vec2::new(size * 0.5 + p.x * scale, size * 0.72 - p.y * scale);
     for b in &level.blocks {
-        let c = map(b.center);
-        let _ = write!(
-            s,
-            r##"<rect x="{}" y="{}" width="{}" height="{}" {} transform="rotate({} {} {})"/>"##,
-            c.x - b.half.x * scale,
-            c.y - b.half.y * scale,
-            (2.0 * b.half.x * scale).max(1.0),
-            (2.0 * b.half.y * scale).max(1.0),
-            b.style,
-            -b.angle.to_degrees(),
-            c.x,
-            c.y
-        );
+        rect(&mut s, map(b.center), b.half * scale, b.angle, b.style);
     }
     for (i, path) in level.paths.iter().enumerate() {
         polyline(&mut s, path, map, colors[i % colors.len()], 1.5);
     }
-    for (points, fill) in [(&level.hits, "red"), (&level.crossings, "#3a3")] {
-        for p in points {
-            let c = map(*p);
-            let _ = write!(
-                s,
-                r##"<circle cx="{}" cy="{}" r="3" fill="{fill}"/>"##,
-                c.x, c.y
-            );
-        }
+    dots(&mut s, &level.hits, map, 3.0, "red");
+    dots(&mut s, &level.crossings, map, 3.0, "#3a3");
+    end_panel(title, &mut s);
+    // Panel 5: the movers, world x in [-8, 8], y in [-1, 15]; the flipper at its first
+    // three poses, the elevator and the box every sixth step.
+    let x0 = 4.0 * (size + 10.0);
+    let title = panel(
+        x0,
+        "Movers: flipper at 20 turns/s, elevator at 20 m/s",
+        &mut s,
+    );
+    let scale = size / 16.0;
+    let map = |p: Vec2| Vec2::new(size * 0.5 + p.x * scale, size - (p.y + 1.0) * scale);
+    let (flipper, elevator) = (&movers.movers[0], &movers.movers[1]);
+    for (k, &(at, angle)) in flipper.1.iter().take(3).enumerate() {
+        let style = format!(r##"fill="#c90" fill-opacity="{}""##, 1.0 - 0.3 * k as f32);
+        rect(&mut s, map(at), flipper.0 * scale, angle, &style);
     }
-    end_panel(&mut s);
+    for (k, &(at, angle)) in elevator.1.iter().enumerate().step_by(6) {
+        rect(
+            &mut s,
+            map(at),
+            elevator.0 * scale,
+            angle,
+            r##"fill="#444""##,
+        );
+        let c = movers.bodies[1][k];
+        rect(
+            &mut s,
+            map(c),
+            Vec2::splat(0.3 * scale),
+            0.0,
+            r##"fill="none" stroke="#c63" stroke-width="1.5""##,
+        );
+    }
+    for (k, path) in movers.bodies.iter().enumerate() {
+        polyline(&mut s, path, map, colors[k], 1.5);
+    }
+    for p in &movers.bodies[0] {
+        let c = map(*p);
+        let _ = write!(
+            s,
+            r##"<circle cx="{}" cy="{}" r="{}" fill="none" stroke="#36c" stroke-width="1.5"/>"##,
+            c.x,
+            c.y,
+            0.1 * scale
+        );
+    }
+    dots(&mut s, &movers.hits, map, 2.0, "red");
+    end_panel(title, &mut s);
     s.push_str("</svg>\n");
     s
+}
+
+/// A dot of picture radius `r` at each of `points` (world), through `map`.
+fn dots(s: &mut String, points: &[Vec2], map: impl Fn(Vec2) -> Vec2, r: f32, fill: &str) {
+    for p in points {
+        let c = map(*p);
+        let _ = write!(
+            s,
+            r##"<circle cx="{}" cy="{}" r="{r}" fill="{fill}"/>"##,
+            c.x, c.y
+        );
+    }
+}
+
+/// A rectangle of picture half extents `half` centred at `c`, turned by `angle` (world radians,
+/// so the picture's turn is the opposite), drawn with `style`.
+fn rect(s: &mut String, c: Vec2, half: Vec2, angle: f32, style: &str) {
+    let _ = write!(
+        s,
+        r##"<rect x="{}" y="{}" width="{}" height="{}" {style} transform="rotate({} {} {})"/>"##,
+        c.x - half.x,
+        c.y - half.y,
+        (2.0 * half.x).max(1.0),
+        (2.0 * half.y).max(1.0),
+        -angle.to_degrees(),
+        c.x,
+        c.y
+    );
 }
 
 /// A body's path as an SVG polyline, through `map` from world to picture.
@@ -505,6 +657,7 @@ fn main() {
     let fall_off = falling_ball(false);
     let fall_on = falling_ball(true);
     let level = level_scene();
+    let movers = movers_scene();
     println!(
         "level: {} impacts, {} sensor crossings; the ball thrown up through the one-way platform ends at y = {:.3} (resting on it: its top 3.05 plus the radius 0.2 and the slop)",
         level.hits.len(),
@@ -517,6 +670,7 @@ fn main() {
         &fall_off,
         &fall_on,
         &level,
+        &movers,
     );
     if let Some(dir) = std::path::Path::new(&svg_path).parent() {
         let _ = std::fs::create_dir_all(dir);
@@ -525,6 +679,16 @@ fn main() {
         Ok(()) => println!("\nwrote {svg_path}"),
         Err(e) => println!("\ncould not write {svg_path}: {e}"),
     }
+    let launched = movers.bodies[0]
+        .windows(2)
+        .map(|w| (w[1] - w[0]).length() / DT as f32)
+        .fold(0.0, f32::max);
+    let carried = movers.bodies[1].last().map_or(f32::NAN, |p| p.y)
+        - movers.movers[1].1.last().map_or(f32::NAN, |m| m.0.y);
+    println!(
+        "movers: the flipper launched the ball at up to {launched:.1} m/s; the box rode the elevator {:.1} m up, {carried:.3} m above its centre at the end (half heights 0.3 + 0.1, plus the slop)",
+        movers.bodies[1].last().map_or(f32::NAN, |p| p.y) - movers.bodies[1][0].y,
+    );
     println!(
         "falling ball: CCD off ends at y = {:.2} (through the floor), CCD on ends at y = {:.3}",
         fall_off.0.last().map_or(f32::NAN, |p| p.y),

@@ -177,12 +177,18 @@ impl StaticSet {
         self.motions.get(slot)
     }
 
-    /// Whether some mover's swept box may overlap `bounds` grown by `margin` (m): a quick,
-    /// conservative test against the box holding them all.
+    /// Whether some mover's swept box overlaps `bounds` grown by `margin` (m): first against
+    /// the box holding them all, then through the movers' hierarchy, so that in a level with
+    /// movers spread all over it a body far from every one is not solved for them.
     #[inline]
     pub fn movers_may_reach(&self, bounds: Aabb, margin: f32) -> bool {
-        self.mover_bounds
-            .is_some_and(|all| all.overlaps(&bounds.expanded(margin)))
+        let bounds = bounds.expanded(margin);
+        if !self.mover_bounds.is_some_and(|all| all.overlaps(&bounds)) {
+            return false;
+        }
+        let mut any = false;
+        self.mover_bvh.for_each_overlap(&bounds, |_| any = true);
+        any
     }
 
     /// Appends to `out` the movers whose swept boxes overlap `bounds` grown by `margin` (m),
@@ -426,5 +432,37 @@ mod tests {
         assert_eq!(disabled, [false, false, true, false]);
         set.rebuild(items);
         assert!(set.records().iter().all(|r| !r.disabled));
+    }
+
+    /// A bound reaches the movers only where one mover's swept box meets it: between two
+    /// movers 100 m apart (inside the box holding both) it reaches none, beside each it does.
+    #[test]
+    fn movers_reach_only_the_bounds_their_swept_boxes_meet() {
+        let disc = Shape::from(Circle::new(0.5).unwrap()).proxy();
+        let at = |x: f32| StaticItem {
+            proxy: disc,
+            position: Vec2::new(x, 0.0),
+            angle: 0.0,
+        };
+        let mut set = StaticSet::default();
+        set.rebuild_with_movers([at(-50.0), at(50.0), at(0.0)], &[0, 1]);
+        let slide = |x: f32| {
+            Sweep::new(
+                Vec2::ZERO,
+                Vec2::new(x, 0.0),
+                0.0,
+                Vec2::new(x + 1.0, 0.0),
+                0.0,
+            )
+        };
+        set.move_targets([(0, slide(-50.0)), (1, slide(50.0))]);
+        let around = |x: f32| Aabb {
+            min: Vec2::new(x - 1.0, -1.0),
+            max: Vec2::new(x + 1.0, 1.0),
+        };
+        assert!(!set.movers_may_reach(around(0.0), 0.005));
+        assert!(set.movers_may_reach(around(-48.0), 0.005));
+        assert!(set.movers_may_reach(around(52.0), 0.005));
+        assert!(!set.movers_may_reach(around(53.0), 0.005));
     }
 }
