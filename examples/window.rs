@@ -13,7 +13,7 @@
 //! cargo run --release --example window --features window
 //! ```
 //!
-//! `BEVY_CCD_SCREENSHOT=shot.ppm` saves the window (a binary PPM) after 3 s and exits.
+//! `BEVY_CCD_SCREENSHOT=shot.ppm` saves the window (a binary PPM) after 5 s and exits.
 
 use std::collections::VecDeque;
 use std::time::Duration;
@@ -176,7 +176,7 @@ fn setup(
         font,
         TextColor(Color::srgb(0.8, 0.8, 0.8)),
         anchor,
-        transform.with_translation(Vec3::new(-15.5, -8.3, 1.0)),
+        transform.with_translation(Vec3::new(-15.5, -7.9, 1.0)),
         HelpText,
     ));
 }
@@ -365,19 +365,19 @@ fn overlay(
     let auto = if volleys.auto { "on" } else { "off" };
     let line = format!(
         "Space / click: fire a volley    S: slow motion ({slow})    D: debug view ({debug})    \
-         A: a volley every {AUTO_FIRE} s ({auto})    walls 5 mm to 5 cm, bullets 300 m/s"
+         A: a volley every {AUTO_FIRE} s ({auto})\nwalls 5 mm to 5 cm thick, bullets at 300 m/s"
     );
     if help.0 != line {
         help.0 = line;
     }
 }
 
-/// With `BEVY_CCD_SCREENSHOT` set: the window saved there (binary PPM) after 3 s, then exit.
+/// With `BEVY_CCD_SCREENSHOT` set: the window saved there (binary PPM) after 5 s, then exit.
 fn screenshot(mut commands: Commands, real: Res<Time<Real>>, mut taken: Local<bool>) {
     let Some(path) = std::env::var_os("BEVY_CCD_SCREENSHOT") else {
         return;
     };
-    if *taken || real.elapsed() < Duration::from_secs(3) {
+    if *taken || real.elapsed() < Duration::from_secs(5) {
         return;
     }
     *taken = true;
