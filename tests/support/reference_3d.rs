@@ -8,14 +8,17 @@
 //!   the least distance between their features (vertex, edge, triangle) when they are
 //!   disjoint, minus the penetration depth by the separating axis test over the face normals
 //!   of both and the cross products of their edges when they overlap (complete for convex
-//!   polyhedra; two cores of one or two points never overlap by a positive depth).
+//!   polyhedra; two cores of one or two points never overlap by a positive depth);
+//! * the scoring rules of the shared 3D oracle (`shared/toi-cases-3d/README.md`).
 //!
 //! Included with `#[path]` by the 3D tests only, so the 2D test binaries do not build it.
 
 #![allow(dead_code)]
 
-use bevy_ccd::geometry::d3::{ShapeProxy, Sweep, ToiInput};
-use glam::{DQuat, DVec3, Vec3};
+use bevy_ccd::geometry::ToiState;
+use bevy_ccd::geometry::d3::{ShapeProxy, Sweep, ToiInput, ToiOutput};
+use glam::{DQuat, DVec3, Quat, Vec3};
+use serde::Deserialize;
 
 /// The linear slop the cases are scored with (m).
 pub const SLOP: f64 = 0.005;
@@ -311,5 +314,162 @@ impl Pair {
             &pb,
             self.b.rotation(t),
         )
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// The shared oracle's cases and scoring rules
+// ---------------------------------------------------------------------------------------------
+
+#[derive(Deserialize, Clone, Debug)]
+pub struct ShapeJson {
+    pub points: Vec<[f32; 3]>,
+    pub radius: f32,
+}
+
+#[derive(Deserialize, Clone, Debug)]
+pub struct SweepJson {
+    pub local_center: [f32; 3],
+    pub c0: [f32; 3],
+    pub q0: [f32; 4],
+    pub c1: [f32; 3],
+    pub w: [f32; 3],
+}
+
+#[derive(Deserialize, Clone, Debug)]
+pub struct Reference {
+    pub t_touch: Option<f64>,
+    pub min_dist: f64,
+    pub t_min: f64,
+    pub d0: f64,
+    pub d1: f64,
+}
+
+#[derive(Deserialize, Clone, Debug)]
+pub struct Oracle {
+    pub angle: Reference,
+}
+
+#[derive(Deserialize, Clone, Debug)]
+pub struct Case {
+    pub id: String,
+    pub family: String,
+    pub a: ShapeJson,
+    pub b: ShapeJson,
+    pub sweep_a: SweepJson,
+    pub sweep_b: SweepJson,
+    pub oracle: Oracle,
+}
+
+pub fn load_cases() -> Vec<Case> {
+    let text = include_str!("../data/toi-cases-3d.jsonl");
+    text.lines()
+        .filter(|l| !l.trim().is_empty())
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect()
+}
+
+fn v(p: [f32; 3]) -> Vec3 {
+    Vec3::from_array(p)
+}
+
+impl ShapeJson {
+    pub fn proxy(&self) -> ShapeProxy {
+        let pts: Vec<Vec3> = self.points.iter().map(|p| v(*p)).collect();
+        ShapeProxy::new(&pts, self.radius).expect("oracle shapes are valid")
+    }
+}
+
+impl SweepJson {
+    pub fn sweep(&self) -> Sweep {
+        let [x, y, z, w] = self.q0;
+        Sweep::new(
+            v(self.local_center),
+            v(self.c0),
+            Quat::from_xyzw(x, y, z, w),
+            v(self.c1),
+            v(self.w),
+        )
+    }
+}
+
+impl Case {
+    pub fn input(&self) -> ToiInput {
+        ToiInput::new(
+            self.a.proxy(),
+            self.sweep_a.sweep(),
+            self.b.proxy(),
+            self.sweep_b.sweep(),
+        )
+    }
+}
+
+/// The README's verdicts.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Verdict {
+    Correct,
+    Miss,
+    Late,
+    Early,
+    Ghost,
+    Failed,
+}
+
+/// Scores one result by the README's rules against the angle-model reference `r`, with the
+/// distance evaluated at the reported fraction by `pair`. Returns the verdict and, for hits
+/// and overlaps, the true surface distance there.
+pub fn score(pair: &Pair, r: &Reference, out: &ToiOutput) -> (Verdict, Option<f64>) {
+    let t = out.fraction as f64;
+    match out.state {
+        ToiState::Failed(_) => (Verdict::Failed, None),
+        ToiState::Separated => {
+            if r.min_dist >= -EPS {
+                (Verdict::Correct, None)
+            } else {
+                (Verdict::Miss, None)
+            }
+        }
+        ToiState::Overlapped => {
+            let d = pair.distance_at(t);
+            if d <= EPS {
+                (Verdict::Correct, Some(d))
+            } else if r.min_dist > 4.0 * SLOP {
+                (Verdict::Ghost, Some(d))
+            } else {
+                (Verdict::Early, Some(d))
+            }
+        }
+        ToiState::Hit => {
+            let d = pair.distance_at(t);
+            if t == 0.0 && r.d0 <= EPS {
+                return (Verdict::Correct, Some(d));
+            }
+            if r.min_dist > 4.0 * SLOP {
+                return (Verdict::Ghost, Some(d));
+            }
+            if d > 4.0 * SLOP {
+                return (Verdict::Early, Some(d));
+            }
+            if d < -2.0 * SLOP {
+                return (Verdict::Miss, Some(d));
+            }
+            if let Some(tt) = r.t_touch
+                && t > tt
+            {
+                // Tunnelled through a deeper penetration between first contact and t?
+                let n = 400;
+                for i in 0..=n {
+                    let s = tt + (t - tt) * i as f64 / n as f64;
+                    if pair.distance_at(s) < -2.0 * SLOP {
+                        return (Verdict::Miss, Some(d));
+                    }
+                }
+            }
+            if d < -EPS {
+                (Verdict::Late, Some(d))
+            } else {
+                (Verdict::Correct, Some(d))
+            }
+        }
     }
 }
