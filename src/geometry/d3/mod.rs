@@ -4,7 +4,10 @@
 //! [`Pose`], [`Aabb`], [`MassProperties`] and [`ShapeProxy`]. Validation errors are the plane's
 //! [`ShapeError`](super::ShapeError) (a hull in space adds
 //! [`Coplanar`](super::ShapeError::Coplanar)). GJK in space ([`shape_distance`]) answers with
-//! the plane's [`DistanceOutput`](super::DistanceOutput) of `Vec3`s.
+//! the plane's [`DistanceOutput`](super::DistanceOutput) of `Vec3`s. The time of impact in
+//! space ([`time_of_impact`]) is the plane's search (the same advancement, certification and
+//! root finder, [`ToiConfig`], [`ToiState`] and [`ToiFailure`]) over [`Sweep`]s in space:
+//! constant angular velocity about a fixed world axis, any number of turns.
 //!
 //! Always compiled: it adds no dependency and little to a build, and a 2D user never pays
 //! for it at run time.
