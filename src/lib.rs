@@ -22,7 +22,8 @@
 //! Two layers:
 //! - [`geometry`]: plain Rust, no ECS. Shapes, GJK, the angle-model [`geometry::Sweep`],
 //!   [`geometry::time_of_impact`], the static [`geometry::Bvh`] and the per-body solver;
-//!   [`geometry::d3`] has the shapes and GJK in space under the same names.
+//!   [`geometry::d3`] has the shapes, GJK, the sweep and the time of impact in space under the
+//!   same names.
 //! - [`plugin`]: the Bevy face. [`CcdPlugin`](plugin::CcdPlugin) records each body's start and
 //!   end `Transform` per fixed step, queries the static hierarchy with swept bounds, runs the
 //!   time of impact in parallel and resolves by clamping or sub-stepping.

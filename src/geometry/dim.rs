@@ -7,7 +7,7 @@
 //! (an angle in the plane, a rotation vector in space), GJK's simplex (a triangle or a
 //! tetrahedron), the separation functions GJK's closest features give (space adds edge
 //! against edge) and the input's checks. [`D2`] is the plane; its public types live in
-//! [`geometry`](super).
+//! [`geometry`](super). [`D3`] is space; its public types live in [`d3`](super::d3).
 //!
 //! Generic code monomorphises to the same instructions as code written for one dimension:
 //! the 2D answers are bit-identical to what they were before the sharing (`tests/toi_bits.rs`
@@ -16,7 +16,7 @@
 use core::fmt::Debug;
 use core::ops::{Add, AddAssign, Div, Mul, Neg, Sub, SubAssign};
 
-use glam::{Vec2, Vec3};
+use glam::{Quat, Vec2, Vec3};
 
 /// The vector arithmetic the shared algorithms do, in either dimension: each method is the
 /// glam method of the same name (the same operations in the same order, hence the same bits).
@@ -213,4 +213,40 @@ impl Dim for D2 {
     type Vector = Vec2;
     type Rotation = super::math::Rot;
     type Pose = super::math::Pose;
+}
+
+/// Space.
+#[derive(Clone, Copy, Debug)]
+pub struct D3;
+
+impl Rotation<Vec3> for Quat {
+    #[inline(always)]
+    fn rotate(self, v: Vec3) -> Vec3 {
+        self * v
+    }
+    #[inline(always)]
+    fn inv_rotate(self, v: Vec3) -> Vec3 {
+        self.conjugate() * v
+    }
+}
+
+impl Isometry<Vec3, Quat> for super::d3::Pose {
+    #[inline(always)]
+    fn p(self) -> Vec3 {
+        self.p
+    }
+    #[inline(always)]
+    fn q(self) -> Quat {
+        self.q
+    }
+    #[inline(always)]
+    fn transform_point(self, v: Vec3) -> Vec3 {
+        super::d3::Pose::transform_point(&self, v)
+    }
+}
+
+impl Dim for D3 {
+    type Vector = Vec3;
+    type Rotation = Quat;
+    type Pose = super::d3::Pose;
 }

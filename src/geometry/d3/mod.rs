@@ -4,7 +4,10 @@
 //! [`Pose`], [`Aabb`], [`MassProperties`] and [`ShapeProxy`]. Validation errors are the plane's
 //! [`ShapeError`](super::ShapeError) (a hull in space adds
 //! [`Coplanar`](super::ShapeError::Coplanar)). GJK in space ([`shape_distance`]) answers with
-//! the plane's [`DistanceOutput`](super::DistanceOutput) of `Vec3`s.
+//! the plane's [`DistanceOutput`](super::DistanceOutput) of `Vec3`s. The time of impact in
+//! space ([`time_of_impact`]) is the plane's search (the same advancement, certification and
+//! root finder, [`ToiConfig`], [`ToiState`] and [`ToiFailure`]) over [`Sweep`]s in space:
+//! constant angular velocity about a fixed world axis, any number of turns.
 //!
 //! Always compiled: it adds no dependency and little to a build, and a 2D user never pays
 //! for it at run time.
@@ -20,6 +23,7 @@
 mod gjk;
 mod hull;
 mod shape;
+mod sweep;
 #[cfg(test)]
 mod test_support;
 
@@ -27,3 +31,24 @@ pub use gjk::{DistanceInput, SimplexCache, shape_distance};
 pub use shape::{
     Aabb, Capsule, ConvexHull, Cuboid, MassProperties, Pose, Segment, Shape, ShapeProxy, Sphere,
 };
+pub use sweep::Sweep;
+
+pub use crate::geometry::query::toi::space::time_of_impact;
+pub use crate::geometry::query::toi::{ToiConfig, ToiFailure, ToiState};
+
+/// Input of [`time_of_impact`] in space: the plane's
+/// [`ToiInput`](crate::geometry::ToiInput) of 3D proxies and sweeps.
+///
+/// ```
+/// use bevy_ccd::geometry::d3::{ShapeProxy, Sweep, ToiInput};
+/// use glam::{Quat, Vec3};
+/// let ball = ShapeProxy::new(&[Vec3::ZERO], 0.1).unwrap();
+/// let still = Sweep::stationary(Vec3::ZERO, Vec3::ZERO, Quat::IDENTITY);
+/// let input = ToiInput::new(ball, still, ball, still);
+/// assert_eq!(input.max_fraction, 1.0);
+/// ```
+pub type ToiInput = crate::geometry::ToiInput<ShapeProxy, Sweep>;
+
+/// Output of [`time_of_impact`] in space: the plane's
+/// [`ToiOutput`](crate::geometry::ToiOutput) with a 3D point and normal.
+pub type ToiOutput = crate::geometry::ToiOutput<glam::Vec3>;

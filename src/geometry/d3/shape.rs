@@ -7,6 +7,7 @@ use super::hull::{convex_hull, inertia_from_second_moment, solid_moments};
 use crate::geometry::constants::MAX_HULL_VERTICES;
 #[cfg(doc)]
 use crate::geometry::constants::MIN_SHAPE_SIZE;
+use crate::geometry::dim::SupportMap;
 use crate::geometry::shape::proxy::check_proxy;
 use crate::geometry::shape::{ShapeError, check_finite, check_radius, check_size};
 
@@ -538,6 +539,26 @@ impl ShapeProxy {
         &self.points[..self.count as usize]
     }
 
+    /// The number of core points.
+    pub fn count(&self) -> usize {
+        self.count as usize
+    }
+
+    /// The core point at `index` (m); `index` must be below [`Self::count`].
+    pub fn point(&self, index: usize) -> Vec3 {
+        self.points[index]
+    }
+
+    /// True when every core coordinate and the radius are within `bound` in magnitude
+    /// (false for NaN).
+    pub(crate) fn within(&self, bound: f32) -> bool {
+        self.points()
+            .iter()
+            .fold(self.radius.abs() <= bound, |ok, p| {
+                ok & (p.x.abs() <= bound) & (p.y.abs() <= bound) & (p.z.abs() <= bound)
+            })
+    }
+
     /// The index of the core point farthest along `direction`, the first on ties.
     pub fn support(&self, direction: Vec3) -> usize {
         crate::geometry::shape::proxy::support_index(self.points(), direction)
@@ -560,6 +581,33 @@ impl ShapeProxy {
             .map(|p| p.distance_squared(center))
             .fold(0.0_f32, f32::max)
             .sqrt()
+    }
+}
+
+impl SupportMap<Vec3> for ShapeProxy {
+    #[inline(always)]
+    fn radius(&self) -> f32 {
+        self.radius
+    }
+    #[inline(always)]
+    fn points(&self) -> &[Vec3] {
+        ShapeProxy::points(self)
+    }
+    #[inline(always)]
+    fn point(&self, index: usize) -> Vec3 {
+        ShapeProxy::point(self, index)
+    }
+    #[inline(always)]
+    fn count(&self) -> usize {
+        ShapeProxy::count(self)
+    }
+    #[inline(always)]
+    fn support(&self, direction: Vec3) -> usize {
+        ShapeProxy::support(self, direction)
+    }
+    #[inline(always)]
+    fn max_distance_from(&self, center: Vec3) -> f32 {
+        ShapeProxy::max_distance_from(self, center)
     }
 }
 

@@ -89,6 +89,7 @@
 mod plane;
 pub(crate) mod search;
 mod separation;
+pub(crate) mod space;
 
 use glam::Vec2;
 
