@@ -154,7 +154,7 @@ impl Ours {
         let mut app = if layered {
             headless_app_with(
                 DT as f64,
-                CcdPlugin::default().with_hooks::<OneWayPlatforms>(),
+                CcdPlugin::default().with_hooks::<OneWayPlatformHooks>(),
             )
         } else {
             headless_app(DT as f64)
