@@ -57,7 +57,7 @@ pub mod prelude {
         CcdSchedule, CcdSensorCrossing, CcdSensorEntered, CcdSensorExited, CcdStartSchedule,
         CcdStepSystems, CcdSystems, Collider, CollisionLayers, Friction, MoveAndSlideOutput,
         MovingTarget, OneWayPlatform, OneWayPlatformHooks, Resolution, Restitution, Sensor,
-        StaticCollider, StaticQuery, StepPoses, Velocity,
+        StaticCollider, StaticQuery, Velocity,
     };
     pub use glam::Vec2;
 }

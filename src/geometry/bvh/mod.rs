@@ -178,7 +178,7 @@ const SHORT_STACK_DEPTH: usize = 32;
 
 /// How many queries [`Bvh::query_group`] walks at once: enough walks in flight for their cache
 /// misses to overlap; more would double the stacks for no gain beyond the noise.
-pub const QUERY_GROUP: usize = 4;
+pub(crate) const QUERY_GROUP: usize = 4;
 
 /// From this many items on, [`Bvh::query_group`] walks its queries side by side. A smaller
 /// tree stays in cache, there are few misses to overlap, and the group's bookkeeping (a stack
@@ -842,7 +842,7 @@ impl<B: TreeBox> Bvh<B> {
     ///
     /// Why: with a large tree and queries scattered over it, a walk spends most of its time
     /// waiting on cache misses, one per level, each depending on the last. This walks up to
-    /// [`QUERY_GROUP`] queries in turn, one node each, so that their misses overlap.
+    /// four queries in turn, one node each, so that their misses overlap.
     ///
     /// # Panics
     ///
