@@ -4,7 +4,9 @@
 //! [`Pose`], [`Aabb`], [`MassProperties`] and [`ShapeProxy`]. Validation errors are the plane's
 //! [`ShapeError`](super::ShapeError) (a hull in space adds
 //! [`Coplanar`](super::ShapeError::Coplanar)). GJK in space ([`shape_distance`]) answers with
-//! the plane's [`DistanceOutput`](super::DistanceOutput) of `Vec3`s.
+//! the plane's [`DistanceOutput`](super::DistanceOutput) of `Vec3`s. Ray casts through static
+//! shapes in space go through a [`StaticSet`], its tree the plane's [`Bvh`](super::Bvh) over
+//! space's [`Aabb`]s.
 //!
 //! Always compiled: it adds no dependency and little to a build, and a 2D user never pays
 //! for it at run time.
@@ -19,11 +21,13 @@
 
 mod gjk;
 mod hull;
+mod ray;
 mod shape;
 #[cfg(test)]
 mod test_support;
 
 pub use gjk::{DistanceInput, SimplexCache, shape_distance};
+pub use ray::{Ray, RayHit, StaticItem, StaticSet};
 pub use shape::{
     Aabb, Capsule, ConvexHull, Cuboid, MassProperties, Pose, Segment, Shape, ShapeProxy, Sphere,
 };
