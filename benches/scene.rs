@@ -52,6 +52,7 @@ use std::hint::black_box;
 use std::time::{Duration, Instant};
 
 use bevy_app::{App, FixedFirst, FixedPostUpdate};
+use bevy_ccd::plugin::StepPoses;
 use bevy_ccd::prelude::*;
 use bevy_ccd::testing::{headless_app, headless_app_with, rewind};
 use bevy_ccd_fixtures::{Level, LevelConfig, generate_level, spawn_level};
@@ -159,7 +160,7 @@ impl Ours {
         let mut app = if layered {
             headless_app_with(
                 DT as f64,
-                CcdPlugin::default().with_hooks::<OneWayPlatforms>(),
+                CcdPlugin::default().with_hooks::<OneWayPlatformHooks>(),
             )
         } else {
             headless_app(DT as f64)

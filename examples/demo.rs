@@ -179,12 +179,12 @@ struct LevelRun {
 }
 
 /// A small level as games build it: a floor and a wall spawned as children of a turned and
-/// moved level root, a one-way platform (the `OneWayPlatforms` hook), a 1 cm trigger
+/// moved level root, a one-way platform (the `OneWayPlatformHooks` hook), a 1 cm trigger
 /// (`Sensor`) and a ghost wall on a layer the balls ignore (`CollisionLayers`). Three balls
 /// under gravity: one thrown up through the platform lands on it; two fly through the ghost
 /// wall and the trigger to the wall, one of them at 200 m/s.
 fn level_scene() -> LevelRun {
-    let mut app = headless_app_with(DT, CcdPlugin::default().with_hooks::<OneWayPlatforms>());
+    let mut app = headless_app_with(DT, CcdPlugin::default().with_hooks::<OneWayPlatformHooks>());
     app.insert_resource(CcdConfig {
         resolution: Resolution::SubStep { max_substeps: 4 },
         ..Default::default()

@@ -54,11 +54,11 @@ pub mod prelude {
     pub use crate::geometry::{Aabb, CastError, ShapeError};
     pub use crate::plugin::{
         BodyMass, CastFilter, CastHit, CcdConfig, CcdDiagnostics, CcdEnabled, CcdError, CcdEvents,
-        CcdHit, CcdHooks, CcdImpact, CcdOutcome, CcdPlugin, CcdSchedule, CcdSensorCrossing,
-        CcdSensorEntered, CcdSensorExited, CcdStartSchedule, CcdStepSystems, CcdSystems, Collider,
-        CollisionLayers, Friction, Hits, ImpactCandidate, MovingTarget, OneWayPlatform,
-        OneWayPlatforms, Resolution, Restitution, Sensor, Slide, StaticCollider, StaticQuery,
-        StepPoses, Velocity,
+        CcdHits, CcdHooks, CcdImpact, CcdImpactCandidate, CcdImpactEvent, CcdOutcome, CcdPlugin,
+        CcdSchedule, CcdSensorCrossing, CcdSensorEntered, CcdSensorExited, CcdStartSchedule,
+        CcdStepSystems, CcdSystems, Collider, CollisionLayers, Friction, MoveAndSlideOutput,
+        MovingTarget, OneWayPlatform, OneWayPlatformHooks, Resolution, Restitution, Sensor,
+        StaticCollider, StaticQuery, Velocity,
     };
     pub use glam::Vec2;
 }

@@ -11,10 +11,10 @@ mod support;
 use std::panic::{AssertUnwindSafe, catch_unwind};
 
 use bevy_ccd::geometry::{
-    Capsule, Circle, DistanceInput, Polygon, Pose, Rot, Segment, Shape, ShapeError, ShapeProxy,
-    SimplexCache, Sweep, ToiBody, ToiConfig, ToiFailure, ToiInput, ToiOutput, ToiState,
-    constants::{LINEAR_SLOP, MAX_POLYGON_VERTICES, MAX_WORLD_COORDINATE, MIN_SHAPE_SIZE},
-    shape_distance, time_of_impact, time_of_impact_prepared,
+    Capsule, Circle, DistanceInput, LINEAR_SLOP, MAX_POLYGON_VERTICES, MAX_WORLD_COORDINATE,
+    MIN_SHAPE_SIZE, Polygon, Pose, Rot, Segment, Shape, ShapeError, ShapeProxy, SimplexCache,
+    Sweep, ToiBody, ToiConfig, ToiFailure, ToiInput, ToiOutput, ToiState, shape_distance,
+    time_of_impact, time_of_impact_prepared,
 };
 use bevy_ccd::prelude::Collider;
 use bevy_ccd_fixtures::SceneRng;

@@ -1,4 +1,4 @@
-//! Entity events: observers on a body and on its target get a `CcdHit` for every impact, with
+//! Entity events: observers on a body and on its target get a `CcdImpactEvent` for every impact, with
 //! the message's data, in the messages' order; sensor crossings likewise as `CcdSensorEntered`
 //! and `CcdSensorExited`; entities without `CcdEvents` get none; the poses observers read are
 //! the ones the step wrote; entities marked before the plugin was added count too.
@@ -19,7 +19,7 @@ struct Seen(Vec<(Entity, Event, [u32; 7])>);
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Event {
-    Hit(CcdHit),
+    Hit(CcdImpactEvent),
     Entered(CcdSensorEntered),
     Exited(CcdSensorExited),
 }
@@ -41,7 +41,7 @@ fn pose_in(bodies: &Query<&Transform>, body: Entity) -> [u32; 7] {
 fn watch(app: &mut App, entity: Entity) {
     let mut e = app.world_mut().entity_mut(entity);
     e.observe(
-        move |hit: On<CcdHit>, bodies: Query<&Transform>, mut seen: ResMut<Seen>| {
+        move |hit: On<CcdImpactEvent>, bodies: Query<&Transform>, mut seen: ResMut<Seen>| {
             let pose = pose_in(&bodies, hit.impact.body);
             seen.0.push((entity, Event::Hit(*hit), pose));
         },
@@ -96,7 +96,7 @@ fn scene(marked: bool) -> (App, Vec<Entity>) {
 }
 
 /// The events each observer should see for one step's messages, in order: for each impact the
-/// body's `CcdHit` then the target's, then for each crossing the body's event then the
+/// body's `CcdImpactEvent` then the target's, then for each crossing the body's event then the
 /// sensor's.
 fn expected(impacts: &[CcdImpact], crossings: &[CcdSensorCrossing]) -> Vec<(Entity, Event)> {
     let mut out = Vec::new();
@@ -104,7 +104,7 @@ fn expected(impacts: &[CcdImpact], crossings: &[CcdSensorCrossing]) -> Vec<(Enti
         for (entity, on_body) in [(impact.body, true), (impact.target, false)] {
             out.push((
                 entity,
-                Event::Hit(CcdHit {
+                Event::Hit(CcdImpactEvent {
                     entity,
                     impact,
                     on_body,
@@ -208,10 +208,11 @@ fn only_marked_entities_get_events() {
 #[test]
 fn entities_marked_before_the_plugin_is_added_get_events() {
     #[derive(Resource, Default)]
-    struct Hits(Vec<(Entity, bool)>);
+    struct HitLog(Vec<(Entity, bool)>);
     let mut app = App::new();
-    app.init_resource::<Hits>();
-    let on_hit = |hit: On<CcdHit>, mut hits: ResMut<Hits>| hits.0.push((hit.entity, hit.on_body));
+    app.init_resource::<HitLog>();
+    let on_hit =
+        |hit: On<CcdImpactEvent>, mut hits: ResMut<HitLog>| hits.0.push((hit.entity, hit.on_body));
     let wall = app
         .world_mut()
         .spawn((
@@ -241,7 +242,7 @@ fn entities_marked_before_the_plugin_is_added_get_events() {
     for _ in 0..3 {
         app.step_fixed(1);
     }
-    let hits = &app.world().resource::<Hits>().0;
+    let hits = &app.world().resource::<HitLog>().0;
     assert!(hits.contains(&(ball, true)), "{hits:?}");
     assert!(hits.contains(&(wall, false)), "{hits:?}");
 }

@@ -10,6 +10,7 @@ mod support;
 use core::f32::consts::FRAC_PI_2;
 
 use bevy_app::App;
+use bevy_ccd::plugin::StepPoses;
 use bevy_ccd::prelude::*;
 use bevy_ecs::prelude::*;
 use bevy_transform::prelude::Transform;

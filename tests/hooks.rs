@@ -45,7 +45,7 @@ fn app_with_plugin(plugin: CcdPlugin, resolution: Resolution, gravity: Vec2) -> 
 /// How the platform is present in a run.
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Platform {
-    /// A `OneWayPlatform` with this `up` and the `OneWayPlatforms` hook.
+    /// A `OneWayPlatform` with this `up` and the `OneWayPlatformHooks` hook.
     OneWay(Vec2),
     /// The same component, but the plugin has no hooks: a plain static target.
     Ignored,
@@ -72,7 +72,7 @@ fn run(
     steps: usize,
 ) -> Run {
     let plugin = match platform {
-        Platform::OneWay(_) => CcdPlugin::default().with_hooks::<OneWayPlatforms>(),
+        Platform::OneWay(_) => CcdPlugin::default().with_hooks::<OneWayPlatformHooks>(),
         _ => CcdPlugin::default(),
     };
     let mut app = app_with_plugin(plugin, resolution, gravity);
@@ -232,7 +232,7 @@ struct VetoAll<'w> {
 }
 
 impl CcdHooks for VetoAll<'_> {
-    fn accept_impact(&self, _: &ImpactCandidate) -> bool {
+    fn accept_impact(&self, _: &CcdImpactCandidate) -> bool {
         false
     }
 }
@@ -248,7 +248,7 @@ struct PassGhosts<'w> {
 }
 
 impl CcdHooks for PassGhosts<'_> {
-    fn accept_impact(&self, impact: &ImpactCandidate) -> bool {
+    fn accept_impact(&self, impact: &CcdImpactCandidate) -> bool {
         !self.ghosts.0.contains(&impact.target)
     }
 }
@@ -312,7 +312,9 @@ fn a_hook_reading_a_resource_vetoes_only_its_targets() {
                     let what = format!("{resolution:?} at {speed} m/s, ghosts {ghosts:?}, {tuple}");
                     let plugin = match tuple {
                         false => CcdPlugin::default().with_hooks::<PassGhosts>(),
-                        true => CcdPlugin::default().with_hooks::<(OneWayPlatforms, PassGhosts)>(),
+                        true => {
+                            CcdPlugin::default().with_hooks::<(OneWayPlatformHooks, PassGhosts)>()
+                        }
                     };
                     let (x, targets, _) = through_walls(plugin, resolution, speed, ghosts, true);
                     // Stopped before the first wall that is not a ghost, hitting only that one.
@@ -330,7 +332,7 @@ fn a_hook_reading_a_resource_vetoes_only_its_targets() {
 
 /// Every candidate a hook was asked about.
 #[derive(Resource, Default)]
-struct Asked(Mutex<Vec<ImpactCandidate>>);
+struct Asked(Mutex<Vec<CcdImpactCandidate>>);
 
 /// Accepts every impact, and records it.
 #[derive(SystemParam)]
@@ -339,7 +341,7 @@ struct Record<'w> {
 }
 
 impl CcdHooks for Record<'_> {
-    fn accept_impact(&self, impact: &ImpactCandidate) -> bool {
+    fn accept_impact(&self, impact: &CcdImpactCandidate) -> bool {
         self.asked.0.lock().expect("not poisoned").push(*impact);
         true
     }
@@ -391,7 +393,7 @@ struct Panics<'w> {
 }
 
 impl CcdHooks for Panics<'_> {
-    fn accept_impact(&self, _: &ImpactCandidate) -> bool {
+    fn accept_impact(&self, _: &CcdImpactCandidate) -> bool {
         panic!("a hook's bug");
     }
 }
@@ -438,7 +440,7 @@ fn a_panicking_hook_keeps_its_impacts_and_panics_nothing() {
 /// platforms (up +y), with or without their hook.
 fn arena(hooked: bool, parallel: bool) -> (Vec<[u32; 7]>, Vec<CcdOutcome>, Vec<CcdImpact>) {
     let plugin = match hooked {
-        true => CcdPlugin::default().with_hooks::<OneWayPlatforms>(),
+        true => CcdPlugin::default().with_hooks::<OneWayPlatformHooks>(),
         false => CcdPlugin::default(),
     };
     let config = CcdConfig {
@@ -490,7 +492,7 @@ fn one_way_platforms_give_the_same_bits_on_one_thread_or_many() {
 fn spinning_boxes_land_and_stay_on_a_one_way_platform() {
     for resolution in MODES {
         let mut app = app_with_plugin(
-            CcdPlugin::default().with_hooks::<OneWayPlatforms>(),
+            CcdPlugin::default().with_hooks::<OneWayPlatformHooks>(),
             resolution,
             G,
         );

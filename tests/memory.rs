@@ -3,6 +3,7 @@
 
 mod support;
 
+use bevy_ccd::plugin::StepPoses;
 use bevy_ccd::prelude::*;
 use support::app::*;
 

@@ -380,7 +380,7 @@ fn a_moving_one_way_platform_carries_from_above_and_passes_from_below() {
         let mut app = {
             let mut app = bevy_ccd::testing::headless_app_with(
                 DT,
-                CcdPlugin::default().with_hooks::<OneWayPlatforms>(),
+                CcdPlugin::default().with_hooks::<OneWayPlatformHooks>(),
             );
             app.insert_resource(CcdConfig {
                 resolution: mode,

@@ -16,6 +16,7 @@
 mod support;
 
 use bevy_app::{App, FixedUpdate};
+use bevy_ccd::plugin::StepPoses;
 use bevy_ccd::prelude::*;
 use bevy_ccd::testing::integrate_velocity;
 use bevy_ccd_fixtures::{ArenaConfig, spawn_arena};

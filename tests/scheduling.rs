@@ -15,6 +15,7 @@ mod support;
 
 use bevy_app::prelude::*;
 use bevy_app::{FixedFirst, FixedPostUpdate};
+use bevy_ccd::plugin::StepPoses;
 use bevy_ccd::prelude::*;
 use bevy_ccd::testing::{StepFixed, headless_app};
 use bevy_ecs::prelude::*;

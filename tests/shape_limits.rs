@@ -5,13 +5,9 @@
 use std::time::{Duration, Instant};
 
 use bevy_ccd::geometry::{
-    Capsule, Circle, DistanceInput, Polygon, Shape, ShapeError, ShapeProxy, Sweep, ToiInput,
-    ToiState,
-    constants::{
-        LINEAR_SLOP, MAX_ASPECT_RATIO, MAX_HULL_INPUT_POINTS, separation_tolerance,
-        target_separation,
-    },
-    shape_distance, time_of_impact,
+    Capsule, Circle, DistanceInput, LINEAR_SLOP, MAX_ASPECT_RATIO, MAX_HULL_INPUT_POINTS, Polygon,
+    Shape, ShapeError, ShapeProxy, Sweep, ToiInput, ToiState, separation_tolerance, shape_distance,
+    target_separation, time_of_impact,
 };
 use bevy_ccd::prelude::*;
 use bevy_ccd::testing::{StepFixed, bodies_outside, headless_app, integrate_velocity};

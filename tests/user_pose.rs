@@ -7,6 +7,7 @@
 mod support;
 
 use bevy_app::App;
+use bevy_ccd::plugin::StepPoses;
 use bevy_ccd::prelude::*;
 use bevy_ecs::prelude::*;
 use bevy_transform::prelude::Transform;

@@ -1,5 +1,10 @@
 //! Every tolerance and limit of the geometry layer, in one place.
 //!
+//! The limits a user meets (the default slop, the coordinate limit, the shapes' limits, the
+//! sub-step cap) are public, re-exported from [`geometry`](super); the solver's and the
+//! queries' tuning (iteration caps, contact counts, the hull's welding tolerance) is the
+//! crate's own.
+//!
 //! Lengths are in metres unless a length unit is configured (see [`ToiConfig`](super::ToiConfig)
 //! and [`ToiConfig::linear_slop`](super::ToiConfig::linear_slop)); the tolerances of a query are
 //! derived from its slop, Box2D-style, rather than sprinkled through the code.
@@ -29,14 +34,14 @@ pub const MAX_HULL_VERTICES: usize = 32;
 /// GJK in 2D on polygons of at most [`MAX_POLYGON_VERTICES`] vertices terminates in far fewer
 /// (each iteration adds a support point not yet in the simplex); the cap only guards against
 /// cycling on degenerate input.
-pub const GJK_MAX_ITERATIONS: u32 = 20;
+pub(crate) const GJK_MAX_ITERATIONS: u32 = 20;
 
 /// The largest number of GJK iterations in space before the closest features are accepted.
 ///
 /// Each iteration but the last adds a new support point and brings the simplex nearer the
 /// origin; pairs of hulls of [`MAX_HULL_VERTICES`] corners end in far fewer. The cap only
 /// guards against rounding making two faces of a round hull take turns.
-pub const GJK_MAX_ITERATIONS_3D: u32 = 48;
+pub(crate) const GJK_MAX_ITERATIONS_3D: u32 = 48;
 
 /// The largest number of outer (advance) iterations of the time of impact before it reports
 /// `Failed`.
@@ -44,7 +49,7 @@ pub const GJK_MAX_ITERATIONS_3D: u32 = 48;
 /// Box2D caps this at 20 because it limits rotation per step. We allow any rotation, and a
 /// rotating body can need extra certified advances (see `toi.rs`), so the cap is higher.
 /// Lowering it below about 40 makes the spinning oracle cases fail.
-pub const TOI_MAX_ITERATIONS: u32 = 200;
+pub(crate) const TOI_MAX_ITERATIONS: u32 = 200;
 
 /// The largest number of iterations of the one-dimensional root finder per push-back step.
 ///
@@ -52,11 +57,11 @@ pub const TOI_MAX_ITERATIONS: u32 = 200;
 /// safeguard bisects whenever two steps have not halved the bracket), which reaches the
 /// `slop / 4` tolerance in well under 30 iterations on a unit interval even when the
 /// separation function is very flat.
-pub const ROOT_MAX_ITERATIONS: u32 = 50;
+pub(crate) const ROOT_MAX_ITERATIONS: u32 = 50;
 
 /// The largest number of extra separation-function evaluations one certification may spend
 /// refining its Lipschitz bound before it settles for a shorter certified interval.
-pub const CERTIFY_MAX_EVALUATIONS: u32 = 24;
+pub(crate) const CERTIFY_MAX_EVALUATIONS: u32 = 24;
 
 /// How many times finer than the slop the `f32` spacing of every coordinate must be:
 /// [`max_world_coordinate`] stops where the spacing would exceed `slop / 64`.
@@ -192,13 +197,13 @@ pub const MAX_SUBSTEPS: u32 = 64;
 /// contacts it starts with are responded to together. Two responses in a row without advancing
 /// already mean the body is wedged: it is left where it ends, at rest (zero velocity), since no
 /// velocity the responses leave can move it; the cap only bounds the work of the sub-step loop.
-pub const MAX_CONTACTS_AT_ONE_POSE: u32 = 8;
+pub(crate) const MAX_CONTACTS_AT_ONE_POSE: u32 = 8;
 
 /// The most targets a body responds to at once when it starts a sweep touching them (more are
 /// left to the next pass of the solver).
 ///
 /// A body in a corner touches two; four leave room for a wedge between obstacles.
-pub const MAX_CONTACTS: usize = 4;
+pub(crate) const MAX_CONTACTS: usize = 4;
 
 /// The most passes over the contacts a body starts a sweep with, when their responses are
 /// iterated until none of them approaches (Gauss-Seidel, as a sequential-impulse solver does).
@@ -206,7 +211,7 @@ pub const MAX_CONTACTS: usize = 4;
 /// Two contacts whose normals couple through the body's rotation (a rod wedged in a corner)
 /// lose about two thirds of what approaches per pass; eight passes leave well under a
 /// thousandth of it.
-pub const CONTACT_PASSES: u32 = 8;
+pub(crate) const CONTACT_PASSES: u32 = 8;
 
 /// The finest tolerance (as a fraction of [`separation_tolerance`]) a body that starts a sweep
 /// touching a target is searched with, when its shape is sharp and its core that close.
@@ -215,4 +220,4 @@ pub const CONTACT_PASSES: u32 = 8;
 /// `1e-7` of the body's size; `slop / 4000` (1.25 µm at the default slop) is ten of those for
 /// bodies up to a metre. A core closer than four of these to the target leaves no room for a
 /// search below it: the body is moved out along the contact normal to eight (10 µm).
-pub const FINEST_TOLERANCE: f32 = 0.001;
+pub(crate) const FINEST_TOLERANCE: f32 = 0.001;

@@ -10,7 +10,7 @@
 //! shares one source tree between 2D and 3D); the plane's parts are in their `plane` files.
 
 mod bvh;
-pub mod constants;
+pub(crate) mod constants;
 pub mod d3;
 pub(crate) mod dim;
 mod math;
@@ -21,10 +21,12 @@ mod sweep;
 #[cfg(test)]
 mod test_support;
 
-pub use bvh::{Bvh, QUERY_GROUP};
+pub use bvh::Bvh;
+pub(crate) use bvh::QUERY_GROUP;
 pub use constants::{
-    LINEAR_SLOP, MAX_POLYGON_VERTICES, MAX_WORLD_COORDINATE, SLOP_PER_COORDINATE_SPACING,
-    max_world_coordinate,
+    HULL_RELATIVE_TOLERANCE, LINEAR_SLOP, MAX_ASPECT_RATIO, MAX_HULL_INPUT_POINTS,
+    MAX_HULL_VERTICES, MAX_POLYGON_VERTICES, MAX_SUBSTEPS, MAX_WORLD_COORDINATE, MIN_SHAPE_SIZE,
+    SLOP_PER_COORDINATE_SPACING, max_world_coordinate, separation_tolerance, target_separation,
 };
 pub(crate) use math::atan2;
 pub use math::{Pose, Rot};

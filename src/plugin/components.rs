@@ -41,8 +41,8 @@ use bevy_transform::components::Transform;
 /// A collider is *immutable*: to reshape one, insert a new `Collider` on the entity. The plugin
 /// learns of every insertion and removal from the component's hooks, so it rebuilds its static
 /// hierarchy only when a static's shape really changed, without scanning every static each step
-/// (a 100,000-static level would cost about 0.1 ms a step to scan), and keeps what the broad
-/// phase needs of a body's shape in its [`StepPoses`].
+/// (a cost that grows with the level), and keeps what the broad phase needs of a body's shape
+/// in its [`StepPoses`].
 #[derive(Component, Reflect, Clone, Copy, Debug, PartialEq)]
 #[component(immutable, on_insert = collider_inserted, on_remove = static_shape_changed)]
 #[reflect(opaque)]
@@ -91,14 +91,14 @@ impl Collider {
     }
 
     /// A box with the given half width and half height, at most
-    /// [`MAX_ASPECT_RATIO`](crate::geometry::constants::MAX_ASPECT_RATIO) times longer than
+    /// [`MAX_ASPECT_RATIO`](crate::geometry::MAX_ASPECT_RATIO) times longer than
     /// wide (a 1 km long, 1 cm thick wall is at half the limit).
     pub fn rectangle(half_width: f32, half_height: f32) -> Result<Self, ShapeError> {
         Ok(Self::new(Polygon::rectangle(half_width, half_height)?))
     }
 
     /// The convex hull of a point cloud (at most
-    /// [`MAX_HULL_INPUT_POINTS`](crate::geometry::constants::MAX_HULL_INPUT_POINTS) points),
+    /// [`MAX_HULL_INPUT_POINTS`](crate::geometry::MAX_HULL_INPUT_POINTS) points),
     /// rounded by `radius`; see [`Polygon::from_points`].
     pub fn convex_hull(points: &[Vec2], radius: f32) -> Result<Self, ShapeError> {
         Ok(Self::new(Polygon::from_points(points, radius)?))
@@ -469,6 +469,7 @@ impl Default for CcdEnabled {
 /// [`CcdStepSystems::Solve`]: super::CcdStepSystems::Solve
 ///
 /// ```
+/// use bevy_ccd::plugin::StepPoses;
 /// use bevy_ccd::prelude::*;
 /// use bevy_ecs::prelude::*;
 ///

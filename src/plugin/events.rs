@@ -1,4 +1,4 @@
-//! Entity events for observers: [`CcdHit`], [`CcdSensorEntered`] and [`CcdSensorExited`],
+//! Entity events for observers: [`CcdImpactEvent`], [`CcdSensorEntered`] and [`CcdSensorExited`],
 //! triggered on the bodies and targets that opt in with [`CcdEvents`].
 
 use bevy_ecs::prelude::*;
@@ -8,13 +8,13 @@ use super::CcdImpact;
 use super::sensors::CcdSensorCrossing;
 
 /// Opts an entity (a CCD body, a static target or a sensor) in to the entity events of its
-/// impacts and sensor crossings: [`CcdHit`], [`CcdSensorEntered`], [`CcdSensorExited`], for
-/// observers (`On<CcdHit>`). An app without the marker pays nothing for them; the messages
+/// impacts and sensor crossings: [`CcdImpactEvent`], [`CcdSensorEntered`], [`CcdSensorExited`], for
+/// observers (`On<CcdImpactEvent>`). An app without the marker pays nothing for them; the messages
 /// ([`CcdImpact`], [`CcdSensorCrossing`]) are sent either way.
 ///
 /// The events are triggered after the step's poses are written
 /// ([`CcdStepSystems::Impacts`](super::CcdStepSystems::Impacts), applied as commands at the end
-/// of [`CcdSchedule`](super::CcdSchedule)): every [`CcdHit`] in the order of the impact messages,
+/// of [`CcdSchedule`](super::CcdSchedule)): every [`CcdImpactEvent`] in the order of the impact messages,
 /// then the sensor events in the order of the crossing messages; for each one, the body's event
 /// before the target's.
 ///
@@ -33,7 +33,7 @@ use super::sensors::CcdSensorCrossing;
 ///         CcdEvents,
 ///         Transform::default(),
 ///     ))
-///     .observe(|hit: On<CcdHit>| println!("hit {:?} at {}", hit.impact.target, hit.impact.fraction));
+///     .observe(|hit: On<CcdImpactEvent>| println!("hit {:?} at {}", hit.impact.target, hit.impact.fraction));
 /// ```
 #[derive(Component, Reflect, Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[reflect(Component, Default, Debug, Clone)]
@@ -42,7 +42,7 @@ pub struct CcdEvents;
 /// An impact, as an entity event on the body and on the target that carry [`CcdEvents`].
 #[derive(EntityEvent, Reflect, Clone, Copy, Debug, PartialEq)]
 #[reflect(Debug, Clone, PartialEq)]
-pub struct CcdHit {
+pub struct CcdImpactEvent {
     /// The entity the event is on: the body, or the target.
     #[event_target]
     pub entity: Entity,
@@ -99,7 +99,7 @@ pub(crate) fn trigger_events(
     for &impact in impacts.read() {
         for (entity, on_body) in [(impact.body, true), (impact.target, false)] {
             if marked.contains(entity) {
-                commands.trigger(CcdHit {
+                commands.trigger(CcdImpactEvent {
                     entity,
                     impact,
                     on_body,

@@ -1,5 +1,5 @@
 //! Impact hooks: user code that vetoes a body's impact with a target ([`CcdHooks`]), and the
-//! one shipped with the crate, [`OneWayPlatforms`].
+//! one shipped with the crate, [`OneWayPlatformHooks`].
 
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -14,7 +14,7 @@ use crate::geometry::CandidateHit;
 
 /// An impact a body is about to be stopped or bounced by, as a [`CcdHooks`] sees it.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ImpactCandidate {
+pub struct CcdImpactCandidate {
     /// The CCD body.
     pub body: Entity,
     /// The body's collider that hits: the body itself, or the part of a compound body.
@@ -74,7 +74,7 @@ pub struct ImpactCandidate {
 /// }
 ///
 /// impl CcdHooks for PassGhosts<'_> {
-///     fn accept_impact(&self, impact: &ImpactCandidate) -> bool {
+///     fn accept_impact(&self, impact: &CcdImpactCandidate) -> bool {
 ///         !self.ghosts.0.contains(&impact.target)
 ///     }
 /// }
@@ -82,12 +82,12 @@ pub struct ImpactCandidate {
 /// let mut app = App::new();
 /// app.init_resource::<Ghosts>().add_plugins((
 ///     bevy_time::TimePlugin,
-///     CcdPlugin::default().with_hooks::<(PassGhosts, OneWayPlatforms)>(),
+///     CcdPlugin::default().with_hooks::<(PassGhosts, OneWayPlatformHooks)>(),
 /// ));
 /// ```
 pub trait CcdHooks: ReadOnlySystemParam + Send + Sync {
     /// Whether the body is stopped (or bounced) by this impact. The default accepts all.
-    fn accept_impact(&self, impact: &ImpactCandidate) -> bool {
+    fn accept_impact(&self, impact: &CcdImpactCandidate) -> bool {
         let _ = impact;
         true
     }
@@ -99,7 +99,7 @@ impl CcdHooks for () {}
 /// Both hooks: an impact is accepted when both accept it (the second is not asked when the
 /// first rejects).
 impl<A: CcdHooks, B: CcdHooks> CcdHooks for (A, B) {
-    fn accept_impact(&self, impact: &ImpactCandidate) -> bool {
+    fn accept_impact(&self, impact: &CcdImpactCandidate) -> bool {
         self.0.accept_impact(impact) && self.1.accept_impact(impact)
     }
 }
@@ -120,7 +120,7 @@ pub(crate) fn ask(
     else {
         return true;
     };
-    let candidate = ImpactCandidate {
+    let candidate = CcdImpactCandidate {
         body,
         body_collider,
         target,
@@ -139,7 +139,7 @@ pub(crate) fn ask(
 }
 
 /// A static target bodies pass from below and land on from above: put it beside a
-/// [`StaticCollider`](super::StaticCollider) and give the plugin the [`OneWayPlatforms`] hook.
+/// [`StaticCollider`](super::StaticCollider) and give the plugin the [`OneWayPlatformHooks`] hook.
 ///
 /// A body is stopped by the platform only when it arrives on its top side (the contact normal
 /// within 45° of `up`), moving down against `up`, and did not start the sweep overlapping it;
@@ -154,7 +154,7 @@ pub(crate) fn ask(
 /// let mut app = App::new();
 /// app.add_plugins((
 ///     bevy_time::TimePlugin,
-///     CcdPlugin::default().with_hooks::<OneWayPlatforms>(),
+///     CcdPlugin::default().with_hooks::<OneWayPlatformHooks>(),
 /// ));
 /// app.world_mut().spawn((
 ///     Collider::rectangle(2.0, 0.1).unwrap(),
@@ -185,7 +185,7 @@ const TOP_SIDE_COS: f32 = core::f32::consts::FRAC_1_SQRT_2;
 
 impl OneWayPlatform {
     /// Whether `impact`, against this platform, stops the body.
-    pub fn accepts(&self, impact: &ImpactCandidate) -> bool {
+    pub fn accepts(&self, impact: &CcdImpactCandidate) -> bool {
         let Some(up) = self.up.try_normalize() else {
             return true;
         };
@@ -197,12 +197,12 @@ impl OneWayPlatform {
 
 /// The [`CcdHooks`] of [`OneWayPlatform`]s: impacts with other targets are accepted.
 #[derive(SystemParam)]
-pub struct OneWayPlatforms<'w, 's> {
+pub struct OneWayPlatformHooks<'w, 's> {
     platforms: Query<'w, 's, &'static OneWayPlatform>,
 }
 
-impl CcdHooks for OneWayPlatforms<'_, '_> {
-    fn accept_impact(&self, impact: &ImpactCandidate) -> bool {
+impl CcdHooks for OneWayPlatformHooks<'_, '_> {
+    fn accept_impact(&self, impact: &CcdImpactCandidate) -> bool {
         self.platforms
             .get(impact.target)
             .ok()

@@ -48,13 +48,13 @@ pub use components::{
 };
 pub use config::CcdConfig;
 pub use diagnostics::CcdDiagnostics;
-pub use events::{CcdEvents, CcdHit, CcdSensorEntered, CcdSensorExited};
+pub use events::{CcdEvents, CcdImpactEvent, CcdSensorEntered, CcdSensorExited};
 pub use hierarchy::MAX_HIERARCHY_DEPTH;
-pub use hooks::{CcdHooks, ImpactCandidate, OneWayPlatform, OneWayPlatforms};
+pub use hooks::{CcdHooks, CcdImpactCandidate, OneWayPlatform, OneWayPlatformHooks};
 pub use layers::CollisionLayers;
-pub use outcome::{CcdError, CcdImpact, CcdOutcome, Hits};
+pub use outcome::{CcdError, CcdHits, CcdImpact, CcdOutcome};
 pub use parts::{BodyParts, PartOf};
-pub use query::{CastFilter, CastHit, Slide, StaticQuery};
+pub use query::{CastFilter, CastHit, MoveAndSlideOutput, StaticQuery};
 pub use sensors::{CcdSensorCrossing, Sensor};
 use workspace::CcdWorkspace;
 

@@ -49,7 +49,7 @@ pub struct CcdImpact {
 /// The impacts of a body's step: the first, and how many there were.
 #[derive(Reflect, Clone, Copy, Debug, PartialEq)]
 #[reflect(Debug, Clone, PartialEq)]
-pub struct Hits {
+pub struct CcdHits {
     /// The earliest impact of the step.
     pub first: CcdImpact,
     /// Impacts this step, sub-steps included (at least 1).
@@ -129,10 +129,10 @@ pub enum CcdOutcome {
     /// Swept; nothing in the way.
     Clear,
     /// Swept; hit one target or more.
-    Hit(Hits),
+    Hit(CcdHits),
     /// Swept; started the step overlapping a target, motion that separates was allowed; and
     /// the impacts, if any.
-    Overlapping(Option<Hits>),
+    Overlapping(Option<CcdHits>),
     /// Could not be swept (left where its user put it), or the time of impact failed (clamped
     /// at the last pose known to be clear; the impacts before are in the messages).
     Error(CcdError),
@@ -140,7 +140,7 @@ pub enum CcdOutcome {
 
 impl CcdOutcome {
     /// The impacts of the step, if any.
-    pub fn hits(&self) -> Option<&Hits> {
+    pub fn hits(&self) -> Option<&CcdHits> {
         match self {
             Self::Hit(hits) | Self::Overlapping(Some(hits)) => Some(hits),
             _ => None,

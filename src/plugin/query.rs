@@ -234,7 +234,7 @@ impl StaticQuery<'_> {
         angle: f32,
         displacement: Vec2,
         filter: &CastFilter,
-    ) -> Result<Slide, CastError> {
+    ) -> Result<MoveAndSlideOutput, CastError> {
         let slid = slide(
             &self.workspace.statics,
             collider.proxy(),
@@ -244,7 +244,7 @@ impl StaticQuery<'_> {
             self.config.linear_slop,
             |index| self.accepts(index, filter),
         )?;
-        Ok(Slide {
+        Ok(MoveAndSlideOutput {
             position: slid.position,
             hits: slid.hits.into_iter().map(|hit| self.hit(hit)).collect(),
         })
@@ -303,13 +303,13 @@ impl StaticQuery<'_> {
 /// use bevy_ccd::prelude::*;
 ///
 /// // Grounded when the slide met a surface facing up.
-/// fn grounded(slide: &Slide) -> bool {
+/// fn grounded(slide: &MoveAndSlideOutput) -> bool {
 ///     slide.hits.iter().any(|hit| hit.normal.y > 0.7)
 /// }
 /// # let _ = grounded;
 /// ```
 #[derive(Clone, Debug, PartialEq)]
-pub struct Slide {
+pub struct MoveAndSlideOutput {
     /// The collider's final origin (m).
     pub position: Vec2,
     /// The statics that stopped or turned it on the way, and those it started overlapping, in

@@ -107,10 +107,10 @@ pub(crate) fn record_start(
         Ok(tables) => {
             let mut tables: SmallVec<[_; RECORD_TABLES]> = tables.collect();
             let total = tables.iter().map(|(_, _, enabled)| enabled.len()).sum();
-            // Only a body whose `Transform` changed costs an `atan2` (15 ns); the others cost
-            // about 2 ns, and the 10,000 of a scene moved by a game loop take 23 µs, less than
-            // waking a pool thread (20-36 µs). So the pass splits over the pool only
-            // when enough `Transform`s changed; counting them reads one tick per body.
+            // Only a body whose `Transform` changed costs an `atan2`; the others cost a copy,
+            // and a pass over a scene of such bodies is shorter than waking a pool thread. So
+            // the pass splits over the pool only when enough `Transform`s changed; counting
+            // them reads one tick per body.
             let changed = match written_at {
                 Some(at) => tables
                     .iter()
@@ -403,16 +403,14 @@ fn for_each_piece<P: Send>(
 }
 
 /// Pieces per worker of the record passes when they split over the pool ([`for_each_piece`]):
-/// at 10,000 bodies on two workers, pieces of about 310 bodies, 5 µs each, so the workers
-/// finish within about 5 µs of each other.
+/// small enough pieces that the workers finish within one piece of each other.
 const RECORD_PIECES_PER_WORKER: usize = 16;
 /// Fewest bodies that need an angle for a record pass to split over the pool.
 ///
-/// Waking a pool thread takes `L` = 20-36 µs (the helper's first piece starts that long after
-/// the pass). A pass of `T` serial time then takes about
-/// `L + (T - L) / 2 = (T + L) / 2` on two workers, which beats `T` only when `T > L`. An
-/// angle costs about 15 ns a body, so `T > L` from about 2,400 bodies; at 4,096, `T` is about
-/// 60 µs and the split saves 10-20 µs.
+/// Waking a pool thread takes a time `L` (the helper's first piece starts that long after the
+/// pass). A pass of `T` serial time then takes about `L + (T - L) / 2 = (T + L) / 2` on two
+/// workers, which beats `T` only when `T > L`: with an angle per body, from a few thousand
+/// bodies on (`BENCHMARKS.md`, decisions, "Record: passes over table slices").
 const RECORD_PARALLEL_MIN: usize = 4096;
 /// Tables a record pass keeps on the stack (more spill to the heap).
 const RECORD_TABLES: usize = 8;

@@ -7,7 +7,7 @@ use glam::Quat;
 
 use super::compound::Compounds;
 use super::hierarchy::Planar;
-use super::outcome::{CcdError, CcdImpact, CcdOutcome, Hits};
+use super::outcome::{CcdError, CcdHits, CcdImpact, CcdOutcome};
 use super::workspace::{BodyEntry, HAS_VELOCITY, Lane, NUDGED, OVERLAPPING};
 use super::{StaticCollider, StepPoses, Velocity};
 use crate::geometry::ImpactRecord;
@@ -118,7 +118,7 @@ pub(crate) fn write_lane(
             v.linear = body.velocity;
             v.angular = body.angular;
         }
-        let hits = (body.impact_count > 0).then(|| Hits {
+        let hits = (body.impact_count > 0).then(|| CcdHits {
             first: targets.impact(body, &lane.impacts[body.impacts as usize], 0, compounds),
             count: body.impact_count as u32,
             substeps: body.substeps as u32,

@@ -11,6 +11,7 @@
 //! any difference is a fault of those passes.
 
 use bevy_app::{App, FixedFirst, FixedPostUpdate};
+use bevy_ccd::plugin::StepPoses;
 use bevy_ccd::prelude::*;
 use bevy_ccd::testing::headless_app;
 use bevy_ccd_fixtures::{Arena, Level, LevelConfig, generate_level, spawn_level};

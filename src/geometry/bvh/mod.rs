@@ -40,6 +40,7 @@
 
 mod build;
 mod plane;
+mod space;
 
 use core::fmt;
 
@@ -49,8 +50,9 @@ use super::dim::Vector;
 use super::shape::Aabb;
 use build::{morton_sort, split};
 
-/// The box a tree holds, in its dimension (the plane's [`Aabb`]). Sealed: the crate
-/// implements it for its own boxes only.
+/// The box a tree holds, in its dimension (the plane's [`Aabb`], space's
+/// [`d3::Aabb`](crate::geometry::d3::Aabb)). Sealed: the crate implements it for its own boxes
+/// only.
 ///
 /// A box is *packed* for the tree as its lower corner and its negated upper corner, so that
 /// the union of two is one component-wise `min`; the children of a wide node and the items of
@@ -141,6 +143,7 @@ mod private {
     /// Only the crate's boxes are tree boxes.
     pub trait Sealed {}
     impl Sealed for crate::geometry::shape::Aabb {}
+    impl Sealed for crate::geometry::d3::Aabb {}
 }
 
 /// The most items a leaf holds; a node is split exactly when it has more.
@@ -178,7 +181,7 @@ const SHORT_STACK_DEPTH: usize = 32;
 
 /// How many queries [`Bvh::query_group`] walks at once: enough walks in flight for their cache
 /// misses to overlap; more would double the stacks for no gain beyond the noise.
-pub const QUERY_GROUP: usize = 4;
+pub(crate) const QUERY_GROUP: usize = 4;
 
 /// From this many items on, [`Bvh::query_group`] walks its queries side by side. A smaller
 /// tree stays in cache, there are few misses to overlap, and the group's bookkeeping (a stack
@@ -365,8 +368,9 @@ struct Bin<B: TreeBox> {
 ///
 /// `Debug` prints a summary (item count, node count, depth, bounds), not every node.
 ///
-/// The boxes are the plane's [`Aabb`] by default: the tree's build and walks are written
-/// over a box trait, one code for any dimension's boxes.
+/// The boxes are the plane's [`Aabb`] by default; `Bvh<d3::Aabb>` holds space's
+/// ([`d3::Aabb`](crate::geometry::d3::Aabb)): the tree's build and walks are written over a box
+/// trait, one code for both dimensions' boxes.
 #[derive(Clone)]
 pub struct Bvh<B: TreeBox = Aabb> {
     /// The nodes; `nodes[0]` is the root, children always come after their parent.
@@ -842,7 +846,7 @@ impl<B: TreeBox> Bvh<B> {
     ///
     /// Why: with a large tree and queries scattered over it, a walk spends most of its time
     /// waiting on cache misses, one per level, each depending on the last. This walks up to
-    /// [`QUERY_GROUP`] queries in turn, one node each, so that their misses overlap.
+    /// four queries in turn, one node each, so that their misses overlap.
     ///
     /// # Panics
     ///
@@ -947,8 +951,8 @@ impl<B: TreeBox> Bvh<B> {
     }
 
     /// Number of nodes, inner and leaf (0 for an empty tree). Useful for memory accounting:
-    /// each node takes 32 bytes, each item 24, and the four-wide copy the queries walk about
-    /// 96 bytes per four nodes.
+    /// in the plane each node takes 32 bytes, each item 24, and the four-wide copy the queries
+    /// walk about 96 bytes per four nodes; in space a node takes 64 bytes.
     pub fn node_count(&self) -> usize {
         self.nodes.len()
     }

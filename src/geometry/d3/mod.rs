@@ -7,7 +7,9 @@
 //! the plane's [`DistanceOutput`](super::DistanceOutput) of `Vec3`s. The time of impact in
 //! space ([`time_of_impact`]) is the plane's search (the same advancement, certification and
 //! root finder, [`ToiConfig`], [`ToiState`] and [`ToiFailure`]) over [`Sweep`]s in space:
-//! constant angular velocity about a fixed world axis, any number of turns.
+//! constant angular velocity about a fixed world axis, any number of turns. Ray casts through
+//! static shapes in space go through a [`StaticSet`], its tree the plane's [`Bvh`](super::Bvh)
+//! over space's [`Aabb`]s.
 //!
 //! Always compiled: it adds no dependency and little to a build, and a 2D user never pays
 //! for it at run time.
@@ -22,12 +24,14 @@
 
 mod gjk;
 mod hull;
+mod ray;
 mod shape;
 mod sweep;
 #[cfg(test)]
 mod test_support;
 
 pub use gjk::{DistanceInput, SimplexCache, shape_distance};
+pub use ray::{Ray, RayHit, StaticItem, StaticSet};
 pub use shape::{
     Aabb, Capsule, ConvexHull, Cuboid, MassProperties, Pose, Segment, Shape, ShapeProxy, Sphere,
 };

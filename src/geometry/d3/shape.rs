@@ -274,11 +274,11 @@ fn cuboid_corners(h: Vec3) -> [Vec3; 8] {
 /// The convex hull of up to [`MAX_HULL_VERTICES`] corners, optionally rounded.
 ///
 /// Built from a point cloud of up to
-/// [`MAX_HULL_INPUT_POINTS`](crate::geometry::constants::MAX_HULL_INPUT_POINTS) points;
+/// [`MAX_HULL_INPUT_POINTS`](crate::geometry::MAX_HULL_INPUT_POINTS) points;
 /// points inside the hull or on its faces are dropped. A cloud with no volume (its points on
 /// one line or plane: [`ShapeError::Collinear`], [`ShapeError::Coplanar`]), whose hull has more
 /// than [`MAX_HULL_VERTICES`] corners ([`ShapeError::TooManyPoints`]) or is more than
-/// [`MAX_ASPECT_RATIO`](crate::geometry::constants::MAX_ASPECT_RATIO) times longer than wide
+/// [`MAX_ASPECT_RATIO`](crate::geometry::MAX_ASPECT_RATIO) times longer than wide
 /// ([`ShapeError::TooThin`]) is refused.
 ///
 /// ```

@@ -174,7 +174,7 @@ pub enum ToiFailure {
     InvalidInput,
     /// A coordinate is beyond [`MAX_WORLD_COORDINATE`].
     CoordinatesTooLarge,
-    /// The advance loop ran [`TOI_MAX_ITERATIONS`] times without an answer.
+    /// The advance loop reached its iteration cap without an answer.
     IterationLimit,
     /// The root finder could not bracket the separation (a numerical breakdown).
     RootFinder,
@@ -749,8 +749,8 @@ mod tests {
     /// metres, a third of them not turning and the rest up to a turn and a half, whose bounding
     /// discs come within hit range. A hit found from the proof's start on a pair that does not
     /// turn lies in the band, as the search's own does. The proof settles at least a tenth of
-    /// the pairs (about 15 %) and moves the start of at least a tenth of the hits without
-    /// rotation, so the test fails if either stops working.
+    /// the pairs and moves the start of at least a tenth of the hits without rotation, so the
+    /// test fails if either stops working.
     #[test]
     fn the_early_proof_only_settles_what_the_search_calls_separated() {
         use crate::geometry::test_support::{Rng, shape};
