@@ -145,8 +145,20 @@ pub(crate) fn solve_bodies(
     let mut solved: Vec<(Vec<u32>, Vec<MutualImpact>)> = Vec::new();
     loop {
         let pairs = candidate_pairs(bodies, &bounds, slop, &meets);
+        let islands = islands(bodies.len(), &pairs);
+        // Each island's pairs, by its place in the list.
+        let mut slot = vec![usize::MAX; bodies.len()];
+        for (k, island) in islands.iter().enumerate() {
+            for &i in island {
+                slot[i as usize] = k;
+            }
+        }
+        let mut island_pairs = vec![Vec::new(); islands.len()];
+        for &(a, b) in &pairs {
+            island_pairs[slot[a as usize]].push((a, b));
+        }
         let mut changed = false;
-        for island in islands(bodies.len(), &pairs) {
+        for (island, pairs) in islands.into_iter().zip(&island_pairs) {
             // An island solved before with exactly these bodies keeps its answer; any other
             // is a merge of earlier ones (or new), solved afresh from the bodies' paths alone.
             if solved.iter().any(|(s, _)| *s == island) {
@@ -157,7 +169,14 @@ pub(crate) fn solve_bodies(
             for &i in &island {
                 runs[i as usize] = alone[i as usize].clone();
             }
-            let impacts = solve_island(&island, bodies, &mut runs, statics, settings, &meets);
+            let impacts = solve_island(
+                (&island, pairs),
+                bodies,
+                &mut runs,
+                statics,
+                settings,
+                &meets,
+            );
             solved.push((island, impacts));
         }
         if !changed {
@@ -570,10 +589,10 @@ fn stop_at(
     }
 }
 
-/// The time-ordered loop over one island (see the module's documentation); returns its
-/// impacts in time order.
+/// The time-ordered loop over one island (see the module's documentation), from its candidate
+/// pairs (ascending); returns its impacts in time order.
 fn solve_island(
-    island: &[u32],
+    (island, island_pairs): (&[u32], &[(u32, u32)]),
     bodies: &[MutualBody],
     runs: &mut [BodyRun],
     statics: &StaticSet,
@@ -598,12 +617,9 @@ fn solve_island(
             && bounds[x].expanded(slop).overlaps(&bounds[y])
             && meets(a, b)
     };
-    for x in 0..island.len() {
-        for y in x + 1..island.len() {
-            if near(x, y, &bounds) {
-                pairs.push(((x, y), None));
-            }
-        }
+    let place = |i: u32| island.binary_search(&i).expect("an island's pair is in it");
+    for &(a, b) in island_pairs {
+        pairs.push(((place(a), place(b)), None));
     }
     let search = |(x, y): (usize, usize), runs: &[BodyRun], clock: f32| {
         let (a, b) = (island[x] as usize, island[y] as usize);
