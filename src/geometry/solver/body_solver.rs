@@ -279,6 +279,28 @@ pub(crate) fn solve_body(
     statics: &StaticSet,
     candidates: &[u32],
     settings: &SolveSettings,
+    buffers: (&mut Vec<u32>, &mut Vec<ImpactRecord>),
+    filter: &impl BodyFilter,
+    path: Option<&mut Vec<PathPiece>>,
+) -> BodyOutcome {
+    solve_body_from(
+        0.0, body, parts, statics, candidates, settings, buffers, filter, path,
+    )
+}
+
+/// [`solve_body`] for the stretch `[start, 1]` of the step: `body.sweep` covers that stretch
+/// (its start the pose at `start`), and every fraction the solver reports, its path's and its
+/// impacts', is of the whole step. What a body struck by another body is solved with from the
+/// impact on ([`crate::geometry::solver::bodies`]).
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn solve_body_from(
+    start: f32,
+    body: &BodyState,
+    parts: &[BodyPart],
+    statics: &StaticSet,
+    candidates: &[u32],
+    settings: &SolveSettings,
     (scratch, impacts): (&mut Vec<u32>, &mut Vec<ImpactRecord>),
     filter: &impl BodyFilter,
     path: Option<&mut Vec<PathPiece>>,
@@ -287,7 +309,7 @@ pub(crate) fn solve_body(
     match parts {
         [] => {
             let mut path = path;
-            trace(&mut path, &body.sweep, 1.0, 0.0, 1.0);
+            trace(&mut path, &body.sweep, 1.0, start, 1.0);
             BodyOutcome {
                 position: body.sweep.pose_at(1.0).p,
                 angle: body.sweep.a1,
@@ -301,6 +323,7 @@ pub(crate) fn solve_body(
             }
         }
         [one] => solve_in(
+            start,
             body,
             &Single(one),
             statics,
@@ -312,6 +335,7 @@ pub(crate) fn solve_body(
             path,
         ),
         _ => solve_in(
+            start,
             body,
             &Many(parts),
             statics,
@@ -329,6 +353,7 @@ pub(crate) fn solve_body(
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn solve_in(
+    start: f32,
     body: &BodyState,
     parts: &impl Parts,
     statics: &StaticSet,
@@ -341,11 +366,11 @@ fn solve_in(
 ) -> BodyOutcome {
     if statics.has_movers() {
         solve::<true>(
-            body, parts, statics, candidates, settings, scratch, impacts, filter, path,
+            start, body, parts, statics, candidates, settings, scratch, impacts, filter, path,
         )
     } else {
         solve::<false>(
-            body, parts, statics, candidates, settings, scratch, impacts, filter, path,
+            start, body, parts, statics, candidates, settings, scratch, impacts, filter, path,
         )
     }
 }
@@ -365,6 +390,7 @@ fn parts_reach(parts: &impl Parts, center: Vec2) -> f32 {
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn solve<const MOVERS: bool>(
+    start: f32,
     body: &BodyState,
     parts: &impl Parts,
     statics: &StaticSet,
@@ -381,7 +407,9 @@ fn solve<const MOVERS: bool>(
     // The farthest core point from the centre of mass: the reach of every sweep about it.
     let reach = parts_reach(parts, body.local_center);
     let mut sweep = body.sweep;
-    let implied = (sweep.linear_motion() / dt, sweep.angular_motion() / dt);
+    // The sweep's stretch of the step, in seconds (`dt` itself from the step's start).
+    let span = (1.0 - start) * dt;
+    let implied = (sweep.linear_motion() / span, sweep.angular_motion() / span);
     let mut velocity = body.velocity.unwrap_or(implied);
     let mut result = BodyOutcome {
         position: Vec2::ZERO,
@@ -395,7 +423,7 @@ fn solve<const MOVERS: bool>(
         squeezed: false,
     };
     // Fraction of the whole step at the start of the current sweep.
-    let mut step_start = 0.0f32;
+    let mut step_start = start;
     // Impacts in a row that did not advance the body ([`MAX_CONTACTS_AT_ONE_POSE`]).
     let mut stalled = 0;
     // The patches (world ends) of the contacts the last response acted on: the next sweep
@@ -1233,6 +1261,7 @@ mod tests {
         let mut impacts = Vec::new();
         let scratch = &mut Vec::new();
         let out = super::solve::<false>(
+            0.0,
             &body.state,
             parts,
             statics,
