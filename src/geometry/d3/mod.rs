@@ -40,7 +40,7 @@ pub use shape::{
 };
 pub use sweep::Sweep;
 
-pub use crate::geometry::query::toi::space::time_of_impact;
+pub use crate::geometry::query::toi::space::{ToiBody, time_of_impact, time_of_impact_prepared};
 pub use crate::geometry::query::toi::{ToiConfig, ToiFailure, ToiState};
 
 /// Input of [`time_of_impact`] in space: the plane's
