@@ -5,104 +5,21 @@
 
 #[path = "support/reference_3d.rs"]
 mod reference_3d;
+#[path = "support/scene_3d.rs"]
+mod scene_3d;
 
 use bevy_ccd::geometry::d3::{
-    Capsule, ConvexHull, Cuboid, Pose, Segment, Shape, ShapeCast, ShapeHit, Sphere, StaticItem,
-    StaticSet, Sweep, ToiInput, time_of_impact,
+    Cuboid, Pose, Shape, ShapeCast, ShapeHit, Sphere, StaticItem, StaticSet, Sweep, ToiInput,
+    time_of_impact,
 };
 use bevy_ccd::geometry::{CastError, LINEAR_SLOP, ToiConfig, ToiFailure, ToiState};
-use core::f32::consts::{PI, TAU};
+use core::f32::consts::TAU;
 use glam::{Quat, Vec3};
 use reference_3d::{EPS, Pair};
+use scene_3d::{Rng, item, shape};
 
 /// The band a hit leaves the surfaces in: `slop ± slop/4`.
 const BAND: (f64, f64) = (0.75 * LINEAR_SLOP as f64, 1.25 * LINEAR_SLOP as f64);
-
-/// SplitMix64: seeded, so every run casts the same shapes.
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> f32 {
-        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        ((z ^ (z >> 31)) >> 40) as f32 / (1u64 << 24) as f32
-    }
-    fn range(&mut self, lo: f32, hi: f32) -> f32 {
-        lo + (hi - lo) * self.next()
-    }
-    fn vec(&mut self, half: f32) -> Vec3 {
-        Vec3::new(
-            self.range(-half, half),
-            self.range(-half, half),
-            self.range(-half, half),
-        )
-    }
-    fn unit(&mut self) -> Vec3 {
-        loop {
-            let v = self.vec(1.0);
-            if v.length_squared() > 0.01 && v.length_squared() <= 1.0 {
-                return v.normalize();
-            }
-        }
-    }
-    fn rotation(&mut self) -> Quat {
-        Quat::from_axis_angle(self.unit(), self.range(-PI, PI))
-    }
-}
-
-/// A random shape of every kind, about `size` across, sharp or rounded.
-fn shape(rng: &mut Rng, size: f32) -> Shape {
-    let rounded = |rng: &mut Rng| {
-        if rng.next() < 0.5 {
-            0.0
-        } else {
-            rng.range(0.02, 0.3) * size
-        }
-    };
-    match (rng.next() * 5.0) as u32 {
-        0 => Sphere::new(rng.range(0.1, 0.6) * size).unwrap().into(),
-        1 => {
-            let half = rng.vec(0.5 * size);
-            Capsule::new(-half, half, rng.range(0.05, 0.3) * size)
-                .unwrap()
-                .into()
-        }
-        2 => {
-            let half = rng.vec(0.5 * size);
-            Segment::new(-half, half).unwrap().into()
-        }
-        3 => {
-            let h = Vec3::new(
-                rng.range(0.02, 0.5),
-                rng.range(0.02, 0.5),
-                rng.range(0.02, 0.5),
-            ) * size;
-            Cuboid::new(h, rounded(rng)).unwrap().into()
-        }
-        _ => loop {
-            let points: Vec<Vec3> = (0..4 + (rng.next() * 12.0) as usize)
-                .map(|_| rng.vec(0.5 * size))
-                .collect();
-            let r = rounded(rng);
-            if let Ok(hull) = ConvexHull::new(&points, r) {
-                break hull.into();
-            }
-        },
-    }
-}
-
-/// An item about `center`, on one of three layers.
-fn item(rng: &mut Rng, center: Vec3, spread: f32) -> StaticItem {
-    let size = rng.range(0.3, 3.0);
-    let mut item = StaticItem::new(
-        shape(rng, size),
-        Pose::new(center + rng.vec(spread), rng.rotation()),
-    );
-    item.layers = 1 << (rng.next() * 3.0) as u32;
-    item
-}
 
 /// The time of impact of `cast` against `item` alone, over the whole cast, as a hit.
 fn alone(cast: &ShapeCast, index: usize, item: &StaticItem) -> Option<ShapeHit> {
@@ -168,12 +85,12 @@ fn certified_least(pair: &Pair, cast: &ShapeCast, level: f64) -> f64 {
 /// a third not turning and the rest up to three turns about a random axis, on a mask that
 /// cycles through the layers.
 fn random_cast(rng: &mut Rng, spread: f32, k: usize) -> ShapeCast {
-    let size = rng.range(0.2, 1.5);
-    let from = Pose::new(rng.vec(spread), rng.rotation());
+    let size = rng.uniform(0.2, 1.5);
+    let from = Pose::new(rng.vec(spread.into()), rng.rotation());
     let to = Pose::new(from.p + rng.vec(10.0), from.q);
     let mut cast = ShapeCast::new(&shape(rng, size), from, to);
     if !k.is_multiple_of(3) {
-        cast.sweep.w = rng.unit() * rng.range(0.0, 3.0 * TAU) * rng.next();
+        cast.sweep.w = rng.unit() * rng.uniform(0.0, 3.0 * TAU) * rng.next() as f32;
     }
     cast.mask = [u32::MAX, 1, 2, 4, 5][k % 5];
     cast
@@ -264,7 +181,7 @@ fn a_ball_cast_onto_a_box_face_hits_at_the_closed_form_fraction() {
     for trial in 0..50 {
         let center = rng.unit() * 1000.0;
         let q = rng.rotation();
-        let half = Vec3::new(rng.range(0.5, 2.0), rng.range(0.5, 2.0), 0.25);
+        let half = Vec3::new(rng.uniform(0.5, 2.0), rng.uniform(0.5, 2.0), 0.25);
         let boxed = StaticItem::new(Cuboid::new(half, 0.0).unwrap().into(), Pose::new(center, q));
         let mut items: Vec<StaticItem> = (0..200)
             .map(|_| item(&mut rng, center + Vec3::new(0.0, 0.0, 40.0), 10.0))
@@ -272,12 +189,12 @@ fn a_ball_cast_onto_a_box_face_hits_at_the_closed_form_fraction() {
         items.push(boxed);
         let mut set = StaticSet::new();
         set.rebuild(&items);
-        let radius = rng.range(0.05, 0.5);
+        let radius = rng.uniform(0.05, 0.5);
         let normal = q * Vec3::Z;
         // Above a point of the face, `height` out along its normal.
         let over = center + q * Vec3::new(0.5 * half.x, -0.3 * half.y, half.z);
-        let height = rng.range(2.0, 8.0);
-        let travel = rng.range(height, 3.0 * height);
+        let height = rng.uniform(2.0, 8.0);
+        let travel = rng.uniform(height, 3.0 * height);
         let ball = Shape::from(Sphere::new(radius).unwrap());
         let from = Pose::new(over + normal * height, rng.rotation());
         let to = Pose::new(from.p - normal * travel, from.q);
@@ -574,7 +491,7 @@ fn bad_shape_casts_are_errors_and_never_panic() {
         let k = (rng.next() * 5.0) as usize;
         let mut cast = random_cast(&mut rng, 10.0, k);
         for _ in 0..1 + (rng.next() * 3.0) as usize {
-            let g = garbage[(rng.next() * garbage.len() as f32) as usize];
+            let g = garbage[(rng.next() * garbage.len() as f64) as usize];
             let lane = (rng.next() * 3.0) as usize;
             match (rng.next() * 8.0) as u32 {
                 0 => cast.sweep.c0[lane] = g,
