@@ -5,90 +5,13 @@
 //! bisection), for spheres, capsules, segments, cuboids and hulls, sharp and rounded, with
 //! layers, from the origin out to 10 km, and for rays aimed to graze corners and edges.
 
+#[path = "support/scene_3d.rs"]
+mod scene_3d;
+
 use bevy_ccd::geometry::CastError;
-use bevy_ccd::geometry::d3::{
-    Capsule, ConvexHull, Cuboid, Pose, Ray, RayHit, Segment, Shape, Sphere, StaticItem, StaticSet,
-};
+use bevy_ccd::geometry::d3::{Pose, Ray, RayHit, Shape, Sphere, StaticItem, StaticSet};
 use glam::{DQuat, DVec3, Quat, Vec3};
-
-/// SplitMix64: seeded, so every run casts the same rays.
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
-    }
-    fn range(&mut self, lo: f64, hi: f64) -> f64 {
-        lo + (hi - lo) * self.next()
-    }
-    fn vec(&mut self, half: f64) -> Vec3 {
-        Vec3::new(
-            self.range(-half, half) as f32,
-            self.range(-half, half) as f32,
-            self.range(-half, half) as f32,
-        )
-    }
-    fn unit(&mut self) -> Vec3 {
-        loop {
-            let v = self.vec(1.0);
-            if v.length_squared() > 0.01 && v.length_squared() <= 1.0 {
-                return v.normalize();
-            }
-        }
-    }
-    fn rotation(&mut self) -> Quat {
-        let axis = self.unit();
-        Quat::from_axis_angle(axis, self.range(0.0, 6.3) as f32)
-    }
-}
-
-/// A random shape of every kind, about `size` across, sharp or rounded.
-fn shape(rng: &mut Rng, size: f32) -> Shape {
-    let rounded = |rng: &mut Rng| {
-        if rng.next() < 0.5 {
-            0.0
-        } else {
-            rng.range(0.02, 0.3) as f32 * size
-        }
-    };
-    match (rng.next() * 5.0) as u32 {
-        0 => Sphere::new(rng.range(0.1, 0.6) as f32 * size)
-            .unwrap()
-            .into(),
-        1 => {
-            let half = rng.vec(0.5 * f64::from(size));
-            Capsule::new(-half, half, rng.range(0.05, 0.3) as f32 * size)
-                .unwrap()
-                .into()
-        }
-        2 => {
-            let half = rng.vec(0.5 * f64::from(size));
-            Segment::new(-half, half).unwrap().into()
-        }
-        3 => {
-            let h = Vec3::new(
-                rng.range(0.02, 0.5) as f32,
-                rng.range(0.02, 0.5) as f32,
-                rng.range(0.02, 0.5) as f32,
-            ) * size;
-            let r = rounded(rng);
-            Cuboid::new(h, r).unwrap().into()
-        }
-        _ => loop {
-            let points: Vec<Vec3> = (0..4 + (rng.next() * 12.0) as usize)
-                .map(|_| rng.vec(0.5 * f64::from(size)))
-                .collect();
-            let r = rounded(rng);
-            if let Ok(hull) = ConvexHull::new(&points, r) {
-                break hull.into();
-            }
-        },
-    }
-}
+use scene_3d::{Rng, item};
 
 /// The reference's view of an item: its core's corners in world space (`f64`), its radius,
 /// and for a solid core the planes and triangles that support it.
@@ -269,16 +192,6 @@ fn triangle_distance(p: DVec3, a: DVec3, b: DVec3, c: DVec3) -> f64 {
 fn ulp(x: f32) -> f32 {
     let x = x.abs().max(f32::MIN_POSITIVE);
     f32::from_bits(x.to_bits() & 0x7f80_0000) * f32::EPSILON
-}
-
-fn item(rng: &mut Rng, center: Vec3, spread: f64) -> StaticItem {
-    let size = rng.range(0.3, 3.0) as f32;
-    let mut item = StaticItem::new(
-        shape(rng, size),
-        Pose::new(center + rng.vec(spread), rng.rotation()),
-    );
-    item.layers = 1 << (rng.next() * 3.0) as u32;
-    item
 }
 
 /// Checks our hit (or miss) against the reference's, with `f32`'s rounding as the tolerance.
