@@ -14,6 +14,8 @@
 //!
 //! ```text
 //! cargo bench -p bevy_ccd_benches --bench queries_3d
+//! QUERIES_PROFILE=20 valgrind --tool=callgrind --toggle-collect='*profile_ours*' \
+//!     --toggle-collect='*profile_parry*' target/release/deps/queries_3d-* --bench
 //! ```
 
 #[allow(dead_code)]
@@ -102,6 +104,16 @@ fn benches(c: &mut Criterion) {
             .map(|(index, t)| (index, t / ray.length))
     };
 
+    // `QUERIES_PROFILE=n`: every ray `n` times through each, nothing timed: instructions per
+    // ray of `profile_ours` and `profile_parry` under callgrind.
+    if let Some(n) = std::env::var("QUERIES_PROFILE")
+        .ok()
+        .and_then(|s| s.parse().ok())
+    {
+        profile_ours(n, &rays, ours_ray);
+        profile_parry(n, &rays, parry_ray);
+        return;
+    }
     // The same first hit before any timing: the same fraction, and the same item unless two
     // are entered at the same fraction (a ray starting inside overlapping statics).
     let (mut hits, mut same_item) = (0, 0);
@@ -138,6 +150,31 @@ fn benches(c: &mut Criterion) {
         })
     });
     group.finish();
+}
+
+/// A first hit: the item and the fraction of the ray's length.
+type Hit = Option<(u32, f32)>;
+
+/// Every ray through `cast`, `n` times.
+#[inline(always)]
+fn cast_all(n: usize, rays: &[Ray], cast: impl Fn(&Ray) -> Hit) {
+    for _ in 0..n {
+        rays.iter().for_each(|r| {
+            black_box(cast(r));
+        });
+    }
+}
+
+/// Ours alone (`QUERIES_PROFILE`), a function of its own for callgrind.
+#[inline(never)]
+fn profile_ours(n: usize, rays: &[Ray], cast: impl Fn(&Ray) -> Hit) {
+    cast_all(n, rays, cast);
+}
+
+/// parry3d alone (`QUERIES_PROFILE`).
+#[inline(never)]
+fn profile_parry(n: usize, rays: &[Ray], cast: impl Fn(&Ray) -> Hit) {
+    cast_all(n, rays, cast);
 }
 
 fn config() -> Criterion {
