@@ -7,9 +7,10 @@
 //! the plane's [`DistanceOutput`](super::DistanceOutput) of `Vec3`s. The time of impact in
 //! space ([`time_of_impact`]) is the plane's search (the same advancement, certification and
 //! root finder, [`ToiConfig`], [`ToiState`] and [`ToiFailure`]) over [`Sweep`]s in space:
-//! constant angular velocity about a fixed world axis, any number of turns. Ray casts through
-//! static shapes in space go through a [`StaticSet`], its tree the plane's [`Bvh`](super::Bvh)
-//! over space's [`Aabb`]s.
+//! constant angular velocity about a fixed world axis, any number of turns. Ray and shape
+//! casts through static shapes in space go through a [`StaticSet`] ([`Ray`], [`ShapeCast`]),
+//! its tree the plane's [`Bvh`](super::Bvh) over space's [`Aabb`]s, its shape cast the
+//! plane's walk and time of impact.
 //!
 //! Always compiled: it adds no dependency and little to a build, and a 2D user never pays
 //! for it at run time.
@@ -22,6 +23,7 @@
 //! assert!(shape.mass_properties(1000.0).mass > 0.0);
 //! ```
 
+mod cast;
 mod gjk;
 mod hull;
 mod ray;
@@ -30,6 +32,7 @@ mod sweep;
 #[cfg(test)]
 mod test_support;
 
+pub use cast::{ShapeCast, ShapeHit};
 pub use gjk::{DistanceInput, SimplexCache, shape_distance};
 pub use ray::{Ray, RayHit, StaticItem, StaticSet};
 pub use shape::{

@@ -16,13 +16,13 @@
 //! taken about the closest approach (no `b² - k` cancellation), and so the answer is the `f32`
 //! rounding of the exact one at any range inside the coordinate limit.
 
-use glam::{DMat3, DQuat, DVec3, Vec3};
+use glam::{DMat3, DQuat, DVec3, Quat, Vec3};
 
 use super::hull::convex_hull;
 use super::shape::{Aabb, Pose, Shape};
 use crate::geometry::bvh::Bvh;
 use crate::geometry::constants::MAX_WORLD_COORDINATE;
-use crate::geometry::query::cast::CastError;
+use crate::geometry::query::cast::{CastError, sort_by_fraction};
 
 /// One static shape of a [`StaticSet`]: its shape, where it is and the layers it is on.
 ///
@@ -129,6 +129,8 @@ struct Prepared {
     position: DVec3,
     /// Its rotation, made unit in `f64`.
     rotation: DMat3,
+    /// The same rotation as a unit quaternion rounded to `f32`, for the time of impact.
+    orientation: Quat,
     radius: f64,
     /// Its corners: `points[first..first + count]`; one is a ball, two a capsule.
     first: u32,
@@ -254,6 +256,7 @@ impl StaticSet {
         let prepared = Prepared {
             position: item.pose.p.as_dvec3(),
             rotation: DMat3::from_quat(q),
+            orientation: q.as_quat(),
             radius: f64::from(proxy.radius),
             first,
             count: corners.len() as u32,
@@ -294,6 +297,11 @@ impl StaticSet {
         &self.bvh
     }
 
+    /// Item `index`'s rotation, made unit (in `f64`, then rounded).
+    pub(super) fn orientation(&self, index: usize) -> Quat {
+        self.prepared[index].orientation
+    }
+
     /// The first item `ray` enters (ties to the lower index) among those on its layers, or
     /// `None`: the exact entry, to `f32` rounding, with the outward unit normal.
     pub fn cast_ray(&self, ray: &Ray) -> Result<Option<RayHit>, CastError> {
@@ -317,11 +325,7 @@ impl StaticSet {
             hits.push(hit);
             checked.length
         });
-        hits[start..].sort_by(|a, b| {
-            a.fraction
-                .total_cmp(&b.fraction)
-                .then(a.index.cmp(&b.index))
-        });
+        sort_by_fraction(&mut hits[start..], |h| (h.fraction, h.index));
         Ok(())
     }
 

@@ -71,6 +71,41 @@ impl Sweep {
         Self::new(local_center, c, q, c, Vec3::ZERO)
     }
 
+    /// A sweep between two poses of the body origin, turning the short way (by at most half
+    /// a turn) about the centre of mass `local_center` (body frame); for more turns, or the
+    /// long way round, set [`w`](Self::w). The rotations need not be exactly unit: they are
+    /// normalised.
+    ///
+    /// ```
+    /// use bevy_ccd::geometry::d3::{Pose, Sweep};
+    /// use glam::{Quat, Vec3};
+    /// let from = Pose::new(Vec3::ZERO, Quat::IDENTITY);
+    /// let to = Pose::new(Vec3::X, Quat::from_rotation_z(-3.0));
+    /// let sweep = Sweep::between(Vec3::ZERO, from, to);
+    /// assert!((sweep.w - Vec3::new(0.0, 0.0, -3.0)).length() < 1e-5);
+    /// assert!((sweep.pose_at(1.0).p - Vec3::X).length() < 1e-6);
+    /// ```
+    pub fn between(local_center: Vec3, from: Pose, to: Pose) -> Self {
+        let (q0, q1) = (from.q.normalize(), to.q.normalize());
+        // The turn from q0 to q1 in the world frame, on the hemisphere of the short way.
+        let mut turn = q1 * q0.conjugate();
+        if turn.w < 0.0 {
+            turn = -turn;
+        }
+        let w = if turn.is_finite() {
+            turn.to_scaled_axis()
+        } else {
+            Vec3::NAN
+        };
+        Self::new(
+            local_center,
+            from.transform_point(local_center),
+            from.q,
+            to.transform_point(local_center),
+            w,
+        )
+    }
+
     /// The centre of mass at fraction `t`.
     #[inline]
     pub fn center_at(&self, t: f32) -> Vec3 {

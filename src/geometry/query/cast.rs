@@ -7,31 +7,40 @@
 //! whose box the path crosses is tested by [`time_of_impact`] up to the earliest hit found so
 //! far, so a first-hit cast through a large level tests the few targets along the way. A hit
 //! is where the surfaces come within the slop, as for the solver: exact to the slop.
+//!
+//! The shape cast is one code for the plane and for space ([`Cast`], [`first_hit`],
+//! [`all_hits`]): the dimension gives its checks and its shape's box ([`CastDim`]), the static
+//! set its walk and its targets ([`CastTargets`]); space's set is
+//! [`d3::StaticSet`](crate::geometry::d3::StaticSet).
 
 use glam::{DVec2, Vec2};
 use smallvec::SmallVec;
 
 use crate::geometry::constants::max_world_coordinate;
+use crate::geometry::dim::{D2, SupportMap, Vector};
 use crate::geometry::math::Pose;
 use crate::geometry::query::ray::entry_distance;
-use crate::geometry::query::toi::{ToiConfig, ToiFailure, ToiInput, ToiState, time_of_impact};
+use crate::geometry::query::toi::search::{ToiDim, time_of_impact_in};
+#[cfg(doc)]
+use crate::geometry::query::toi::time_of_impact;
+use crate::geometry::query::toi::{ToiConfig, ToiFailure, ToiInput, ToiState};
 use crate::geometry::shape::proxy::ShapeProxy;
 use crate::geometry::solver::static_set::StaticSet;
 use crate::geometry::sweep::Sweep;
 
-/// One target a cast reaches.
+/// One target a cast reaches, in the plane (`Vec2`) or in space (`Vec3`).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub(crate) struct TargetHit {
+pub(crate) struct TargetHit<V = Vec2> {
     /// The target's index in the static set.
     pub(crate) target: u32,
     /// Fraction of the cast at which the shape comes within the slop of the target, in
     /// `[0, 1]`; 0 when it starts overlapping it.
     pub(crate) fraction: f32,
     /// Contact point (world, m), midway between the surfaces.
-    pub(crate) point: Vec2,
+    pub(crate) point: V,
     /// Unit normal from the target toward the cast shape; zero when the cast starts with the
     /// shapes' cores overlapping (no direction is defined there).
-    pub(crate) normal: Vec2,
+    pub(crate) normal: V,
     /// Surface separation at the hit (m): about the slop, negative when overlapping.
     pub(crate) separation: f32,
 }
@@ -64,77 +73,148 @@ pub enum CastError {
     Toi(ToiFailure),
 }
 
-/// A cast checked for use: the shape, its motion, the slop.
-struct Cast<'a> {
-    proxy: &'a ShapeProxy,
-    sweep: Sweep,
+/// What a shape cast asks of its dimension beyond what the time of impact does.
+pub(crate) trait CastDim: ToiDim {
+    /// Whether the shape and its motion hold only finite numbers.
+    fn finite(proxy: &Self::Proxy, sweep: &Self::Sweep) -> bool;
+    /// Whether the motion turns the shape.
+    fn turns(sweep: &Self::Sweep) -> bool;
+    /// The centre and half extents of the shape's box at the start of the motion.
+    fn start_box(proxy: &Self::Proxy, sweep: &Self::Sweep) -> (Self::Vector, Self::Vector);
+}
+
+/// Static targets a shape cast walks: the plane's or space's static set.
+pub(crate) trait CastTargets<D: CastDim> {
+    /// Walks the targets whose boxes a box of half extents `half` moved from `center` by
+    /// `delta` crosses, nearest subtrees first, calling `visit` with each target's index;
+    /// `visit` returns the fraction past which no target matters any more (negative to
+    /// stop).
+    fn walk(
+        &self,
+        center: D::Vector,
+        delta: D::Vector,
+        half: D::Vector,
+        visit: impl FnMut(u32) -> f32,
+    );
+    /// Target `index`'s shape, and its pose as a motion at rest, or `None` when it cannot be
+    /// hit.
+    fn target(&self, index: u32) -> Option<(D::Proxy, D::Sweep)>;
+}
+
+impl CastDim for D2 {
+    #[inline]
+    fn finite(proxy: &ShapeProxy, sweep: &Sweep) -> bool {
+        sweep.is_finite() && proxy.is_finite()
+    }
+
+    #[inline]
+    fn turns(sweep: &Sweep) -> bool {
+        sweep.a0 != sweep.a1
+    }
+
+    #[inline]
+    fn start_box(proxy: &ShapeProxy, sweep: &Sweep) -> (Vec2, Vec2) {
+        let b = proxy.aabb(sweep.pose_at(0.0));
+        (b.center(), 0.5 * (b.max - b.min))
+    }
+}
+
+impl CastTargets<D2> for StaticSet {
+    #[inline]
+    fn walk(&self, center: Vec2, delta: Vec2, half: Vec2, mut visit: impl FnMut(u32) -> f32) {
+        self.cast(center, delta, half, |target, _| visit(target));
+    }
+
+    #[inline]
+    fn target(&self, index: u32) -> Option<(ShapeProxy, Sweep)> {
+        let target = self.items().get(index as usize)?;
+        let at_rest = Sweep::stationary(Vec2::ZERO, target.position, target.angle);
+        (!self.is_disabled(index as usize)).then_some((target.proxy, at_rest))
+    }
+}
+
+/// A shape cast checked for use: the targets, the shape, its motion, the slop.
+pub(crate) struct Cast<'a, D: CastDim, T> {
+    targets: &'a T,
+    proxy: &'a D::Proxy,
+    sweep: D::Sweep,
     slop: f32,
 }
 
-impl<'a> Cast<'a> {
-    /// `proxy` moved by `sweep`, or why it cannot be cast.
-    fn new(proxy: &'a ShapeProxy, sweep: Sweep, slop: f32) -> Result<Self, CastError> {
-        if !sweep.is_finite() || !proxy.is_finite() || !slop.is_finite() || slop <= 0.0 {
+impl<'a, D: CastDim, T: CastTargets<D>> Cast<'a, D, T> {
+    /// `proxy` moved by `sweep` through `targets`, or why it cannot be cast.
+    pub(crate) fn new(
+        targets: &'a T,
+        proxy: &'a D::Proxy,
+        sweep: D::Sweep,
+        slop: f32,
+    ) -> Result<Self, CastError> {
+        if !D::finite(proxy, &sweep) || !slop.is_finite() || slop <= 0.0 {
             return Err(CastError::NonFinite);
         }
-        if sweep.c0 == sweep.c1 && sweep.a0 == sweep.a1 {
+        let (c0, c1) = (D::c0(&sweep), D::c1(&sweep));
+        if c0 == c1 && !D::turns(&sweep) {
             return Err(CastError::ZeroLength);
         }
-        let reach = proxy.reach(sweep.local_center);
-        let far = sweep.c0.abs().max(sweep.c1.abs()).max_element() + reach;
+        let far = c0.max_abs().max(c1.max_abs()) + self_reach::<D>(proxy, &sweep);
         if far > max_world_coordinate(slop) {
             return Err(CastError::CoordinatesTooLarge);
         }
-        Ok(Self { proxy, sweep, slop })
+        // What else the time of impact would refuse of the shape (a negative radius, a
+        // rotation far from unit length), refused before any target is reached.
+        if !D::body_ok(&sweep, proxy) {
+            D::diagnose_body(&sweep, proxy).map_err(CastError::Toi)?;
+        }
+        Ok(Self {
+            targets,
+            proxy,
+            sweep,
+            slop,
+        })
     }
 
     /// Walks the targets whose boxes the cast's path crosses, nearest subtrees first, calling
     /// `visit` with each target's index; `visit` returns the fraction past which no target
     /// matters any more (negative to stop).
-    fn walk(&self, statics: &StaticSet, mut visit: impl FnMut(u32) -> f32) {
+    fn walk(&self, visit: impl FnMut(u32) -> f32) {
         // The cast as a box moved along a segment: without rotation the shape's own box at
-        // the start, moved by the translation; with rotation the box of its reach disc about
+        // the start, moved by the translation; with rotation the box of its reach ball about
         // the centre of mass, which moves on a straight line.
-        let (center, half) = if self.sweep.a0 == self.sweep.a1 {
-            let b = self.proxy.aabb(self.sweep.pose_at(0.0));
-            (b.center(), 0.5 * (b.max - b.min))
+        let (center, half) = if D::turns(&self.sweep) {
+            let reach = self_reach::<D>(self.proxy, &self.sweep);
+            (D::c0(&self.sweep), D::Vector::splat(reach))
         } else {
-            let reach = self.proxy.reach(self.sweep.local_center);
-            (self.sweep.c0, Vec2::splat(reach))
+            D::start_box(self.proxy, &self.sweep)
         };
         // Every target the time of impact can report: it hits at a separation up to the slop
         // and its tolerance (a quarter slop), so twice the slop holds them all.
-        let half = half + Vec2::splat(2.0 * self.slop);
-        let delta = self.sweep.c1 - self.sweep.c0;
-        statics.cast(center, delta, half, |target, _| visit(target));
+        let half = half + D::Vector::splat(2.0 * self.slop);
+        let delta = D::c1(&self.sweep) - D::c0(&self.sweep);
+        self.targets.walk(center, delta, half, visit);
     }
 
     /// The time of impact against target `index` up to `max_fraction`: a hit, nothing, or a
     /// failure.
     fn test(
         &self,
-        statics: &StaticSet,
         index: u32,
         max_fraction: f32,
-    ) -> Result<Option<TargetHit>, CastError> {
-        let Some(target) = statics.items().get(index as usize) else {
+    ) -> Result<Option<TargetHit<D::Vector>>, CastError> {
+        let Some((proxy, at_rest)) = self.targets.target(index) else {
             return Ok(None);
         };
-        if statics.is_disabled(index as usize) {
-            return Ok(None);
-        }
         let input = ToiInput {
             proxy_a: *self.proxy,
             sweep_a: self.sweep,
-            proxy_b: target.proxy,
-            sweep_b: Sweep::stationary(Vec2::ZERO, target.position, target.angle),
+            proxy_b: proxy,
+            sweep_b: at_rest,
             max_fraction,
             config: ToiConfig {
                 linear_slop: self.slop,
                 target_separation: None,
             },
         };
-        let out = time_of_impact(&input);
+        let out = time_of_impact_in::<D>(&input);
         match out.state {
             ToiState::Hit | ToiState::Overlapped => Ok(Some(TargetHit {
                 target: index,
@@ -149,9 +229,14 @@ impl<'a> Cast<'a> {
     }
 }
 
+/// How far the shape reaches from its centre of mass, its radius included (m).
+#[inline]
+fn self_reach<D: CastDim>(proxy: &D::Proxy, sweep: &D::Sweep) -> f32 {
+    proxy.max_distance_from(D::local_center(sweep)) + proxy.radius()
+}
+
 /// The first target `proxy` reaches moving along `sweep` (ties to the lower index), among the
 /// targets `accept` lets it hit.
-///
 pub(crate) fn cast_first(
     statics: &StaticSet,
     proxy: &ShapeProxy,
@@ -159,18 +244,19 @@ pub(crate) fn cast_first(
     slop: f32,
     accept: impl Fn(u32) -> bool,
 ) -> Result<Option<TargetHit>, CastError> {
-    first_hit(statics, &Cast::new(proxy, sweep, slop)?, accept)
+    first_hit(&Cast::<D2, _>::new(statics, proxy, sweep, slop)?, accept)
 }
 
-/// The first target `cast` reaches among those `accept` lets it hit.
-fn first_hit(
-    statics: &StaticSet,
-    cast: &Cast,
+/// The first target `cast` reaches among those `accept` lets it hit (ties to the lower
+/// index): each target the walk visits is searched up to the earliest hit so far, and the walk
+/// prunes every subtree it enters after that.
+pub(crate) fn first_hit<D: CastDim, T: CastTargets<D>>(
+    cast: &Cast<'_, D, T>,
     accept: impl Fn(u32) -> bool,
-) -> Result<Option<TargetHit>, CastError> {
-    let mut best: Option<TargetHit> = None;
+) -> Result<Option<TargetHit<D::Vector>>, CastError> {
+    let mut best: Option<TargetHit<D::Vector>> = None;
     let mut error = None;
-    cast.walk(statics, |index| {
+    cast.walk(|index| {
         let limit = best.map_or(1.0, |b| b.fraction);
         if error.is_some() {
             return -1.0;
@@ -178,7 +264,7 @@ fn first_hit(
         if !accept(index) {
             return limit;
         }
-        match cast.test(statics, index, limit) {
+        match cast.test(index, limit) {
             Ok(Some(hit)) => {
                 let earlier = best.is_none_or(|b| {
                     hit.fraction < b.fraction || (hit.fraction == b.fraction && index < b.target)
@@ -212,13 +298,25 @@ pub(crate) fn cast_all(
     accept: impl Fn(u32) -> bool,
     hits: &mut Vec<TargetHit>,
 ) -> Result<(), CastError> {
-    let cast = Cast::new(proxy, sweep, slop)?;
+    let cast = Cast::<D2, _>::new(statics, proxy, sweep, slop)?;
+    all_hits(&cast, accept, hits, hit_order)
+}
+
+/// Every target `cast` reaches that `accept` lets it hit, each searched over the whole cast,
+/// appended to `hits` (as `H`) in order of fraction (ties by index); on an error `hits` is
+/// left as it was.
+pub(crate) fn all_hits<D: CastDim, T: CastTargets<D>, H: From<TargetHit<D::Vector>>>(
+    cast: &Cast<'_, D, T>,
+    accept: impl Fn(u32) -> bool,
+    hits: &mut Vec<H>,
+    order: impl Fn(&H) -> (f32, u32),
+) -> Result<(), CastError> {
     let start = hits.len();
     let mut error = None;
-    cast.walk(statics, |index| {
+    cast.walk(|index| {
         if error.is_none() && accept(index) {
-            match cast.test(statics, index, 1.0) {
-                Ok(Some(hit)) => hits.push(hit),
+            match cast.test(index, 1.0) {
+                Ok(Some(hit)) => hits.push(hit.into()),
                 Ok(None) => {}
                 Err(e) => error = Some(e),
             }
@@ -229,12 +327,22 @@ pub(crate) fn cast_all(
         hits.truncate(start);
         return Err(e);
     }
-    hits[start..].sort_by(|a, b| {
-        a.fraction
-            .total_cmp(&b.fraction)
-            .then(a.target.cmp(&b.target))
-    });
+    sort_by_fraction(&mut hits[start..], order);
     Ok(())
+}
+
+/// Sorts hits by fraction, ties by index (`order` gives both): the order every `_all` cast
+/// reports in.
+pub(crate) fn sort_by_fraction<H>(hits: &mut [H], order: impl Fn(&H) -> (f32, u32)) {
+    hits.sort_by(|a, b| {
+        let ((fa, ia), (fb, ib)) = (order(a), order(b));
+        fa.total_cmp(&fb).then(ia.cmp(&ib))
+    });
+}
+
+/// The fraction and index of a hit, by which the plane's casts order their hits.
+fn hit_order<V>(hit: &TargetHit<V>) -> (f32, u32) {
+    (hit.fraction, hit.target)
 }
 
 /// Where [`slide`] left a shape.
@@ -306,9 +414,9 @@ pub(crate) fn slide(
             slid.position + rest,
             angle,
         );
-        let cast = Cast::new(proxy, sweep, slop)?;
+        let cast = Cast::<D2, _>::new(statics, proxy, sweep, slop)?;
         let kept = |index: u32| planes.iter().any(|&(target, _)| target == index);
-        let Some(hit) = first_hit(statics, &cast, |index| !kept(index) && accept(index))? else {
+        let Some(hit) = first_hit(&cast, |index| !kept(index) && accept(index))? else {
             slid.position += rest;
             break;
         };
@@ -465,9 +573,5 @@ pub(crate) fn ray_all(
         hits.push(hit);
         f64::from(ray.length)
     });
-    hits[start..].sort_by(|a, b| {
-        a.fraction
-            .total_cmp(&b.fraction)
-            .then(a.target.cmp(&b.target))
-    });
+    sort_by_fraction(&mut hits[start..], hit_order);
 }
