@@ -96,7 +96,8 @@ use parry2d::query::sweep_toi::{
 use parry2d::query::{NonlinearRigidMotion, ShapeCastStatus, cast_shapes_nonlinear};
 use parry2d::shape::{Ball, Capsule, ConvexPolygon, RoundShape, Segment, Shape};
 use toi_common::{
-    RunMode, fmt_len, fmt_ns, fmt_ratio, guarded, median, target_dir, time_interleaved,
+    RunMode, fmt_len, fmt_ns, fmt_ratio, guarded, median, median_ns, ratio, target_dir,
+    time_interleaved,
 };
 
 /// The families: the README's, in its order, then the generated one.
@@ -702,23 +703,14 @@ impl<'a> Family<'a> {
 
     /// The median over cases of the per-case time of `engine` (ns).
     fn median_ns(&self, engine: Engine) -> Option<f64> {
-        let times: Vec<f64> = self
-            .ns
-            .iter()
-            .filter_map(|m| m.get(&engine).copied())
-            .collect();
-        median(&times)
+        median_ns(&self.ns, engine)
     }
 
     /// The median over the cases both answer correctly of the per-case ratio ours / `peer`,
     /// and the number of those cases.
     fn ratio(&self, peer: Engine) -> (Option<f64>, usize) {
         let correct = |i: usize, e: Engine| self.verdicts[i][&e] == Some(Verdict::Correct);
-        let ratios: Vec<f64> = (0..self.ns.len())
-            .filter(|&i| correct(i, Engine::Ours) && correct(i, peer))
-            .filter_map(|i| Some(self.ns[i].get(&Engine::Ours)? / self.ns[i].get(&peer)?))
-            .collect();
-        (median(&ratios), ratios.len())
+        ratio(&self.ns, Engine::Ours, peer, correct)
     }
 }
 

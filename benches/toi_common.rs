@@ -1,6 +1,7 @@
 //! What the 2D and 3D time-of-impact benches share: how the binary was invoked, where the
 //! target directory is, per-case interleaved timing, medians and the table's cells.
 
+use std::collections::BTreeMap;
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
@@ -88,6 +89,27 @@ pub fn time_interleaved<E: Copy>(engines: &[E], rounds: usize, call: impl Fn(E))
         .iter()
         .map(|t| median(t).unwrap_or(f64::NAN))
         .collect()
+}
+
+/// The median over cases of `engine`'s per-case time (ns), from each case's times.
+pub fn median_ns<E: Ord>(ns: &[BTreeMap<E, f64>], engine: E) -> Option<f64> {
+    let times: Vec<f64> = ns.iter().filter_map(|m| m.get(&engine).copied()).collect();
+    median(&times)
+}
+
+/// The median per-case ratio `ours / peer` over the cases both answer correctly
+/// (`correct(case, engine)`), and the number of those cases.
+pub fn ratio<E: Ord + Copy>(
+    ns: &[BTreeMap<E, f64>],
+    ours: E,
+    peer: E,
+    correct: impl Fn(usize, E) -> bool,
+) -> (Option<f64>, usize) {
+    let ratios: Vec<f64> = (0..ns.len())
+        .filter(|&i| correct(i, ours) && correct(i, peer))
+        .filter_map(|i| Some(ns[i].get(&ours)? / ns[i].get(&peer)?))
+        .collect();
+    (median(&ratios), ratios.len())
 }
 
 pub fn median(values: &[f64]) -> Option<f64> {

@@ -95,20 +95,12 @@ fn oracle_3d_cases_all_correct() {
             }
         }
     }
-    let verdicts = [
-        Verdict::Correct,
-        Verdict::Miss,
-        Verdict::Late,
-        Verdict::Early,
-        Verdict::Ghost,
-        Verdict::Failed,
-    ];
     eprintln!(
         "{:>18} {:>8} {:>5} {:>5} {:>6} {:>6} {:>7}",
         "family", "correct", "miss", "late", "early", "ghost", "failed"
     );
     for (family, counts) in &tally {
-        let n = verdicts.map(|v| counts.get(&v).copied().unwrap_or(0));
+        let n = Verdict::ALL.map(|v| counts.get(&v).copied().unwrap_or(0));
         eprintln!(
             "{family:>18} {:>8} {:>5} {:>5} {:>6} {:>6} {:>7}",
             n[0], n[1], n[2], n[3], n[4], n[5]

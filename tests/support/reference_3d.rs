@@ -471,6 +471,18 @@ pub enum Verdict {
     Failed,
 }
 
+impl Verdict {
+    /// Every verdict, in the README's order (a table's columns).
+    pub const ALL: [Verdict; 6] = [
+        Verdict::Correct,
+        Verdict::Miss,
+        Verdict::Late,
+        Verdict::Early,
+        Verdict::Ghost,
+        Verdict::Failed,
+    ];
+}
+
 /// The state of a result in the README's implementation-neutral terms, so other engines'
 /// results are scored by the same rules as ours.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
