@@ -6,8 +6,8 @@
 mod reference_3d;
 
 use bevy_ccd::geometry::d3::{
-    Capsule, ConvexHull, Cuboid, Segment, Shape, ShapeProxy, Sphere, Sweep, ToiInput, ToiOutput,
-    time_of_impact,
+    Capsule, ConvexHull, Cuboid, Segment, Shape, ShapeProxy, Sphere, Sweep, ToiBody, ToiInput,
+    ToiOutput, time_of_impact, time_of_impact_prepared,
 };
 use bevy_ccd::geometry::{LINEAR_SLOP, MAX_WORLD_COORDINATE, ToiFailure, ToiState};
 use core::f32::consts::{PI, TAU};
@@ -309,6 +309,8 @@ fn random_spinning_pairs_never_tunnel_and_hit_in_the_band() {
 /// Random input with non-finite, huge, zero and negative numbers in every field never panics;
 /// non-finite input fails with `NonFinite`, coordinates beyond the bound with
 /// `CoordinatesTooLarge`, a zero start quaternion or a negative radius with `InvalidInput`.
+/// The prepared entry (`ToiBody`, `time_of_impact_prepared`) answers every input bit for bit
+/// as the plain one, and refuses a bad body when it is made, with the same failure.
 #[test]
 fn bad_input_fails_cleanly_and_never_panics() {
     let mut rng = Rng(0x00BA_D13D);
@@ -330,7 +332,7 @@ fn bad_input_fails_cleanly_and_never_panics() {
             x
         }
     };
-    let mut states = [0usize; 4];
+    let (mut states, mut prepared_count) = ([0usize; 4], 0);
     for _ in 0..20_000 {
         let (a, b) = (random_shape(&mut rng), random_shape(&mut rng));
         let (mut sa, sb) = (random_sweep(&mut rng), random_sweep(&mut rng));
@@ -389,6 +391,21 @@ fn bad_input_fails_cleanly_and_never_panics() {
                 "{input:?}: {out:?}"
             ),
         }
+        // Prepared bodies give the same answer bit for bit; a body the query refuses is
+        // refused when it is made, with the query's failure (when the settings pass).
+        let settings_ok = slop.is_finite() && slop > 0.0 && (0.0..=1.0).contains(&fraction);
+        match (ToiBody::new(input.proxy_a, sa), ToiBody::new(b, sb)) {
+            (Ok(body_a), Ok(body_b)) => {
+                let prepared = time_of_impact_prepared(&body_a, &body_b, fraction, &input.config);
+                assert_eq!(prepared, out, "{input:?}");
+                prepared_count += 1;
+            }
+            (Err(failure), _) | (_, Err(failure)) => {
+                if settings_ok {
+                    assert_eq!(out.state, ToiState::Failed(failure), "{input:?}");
+                }
+            }
+        }
         states[match out.state {
             ToiState::Hit => 0,
             ToiState::Separated => 1,
@@ -400,6 +417,7 @@ fn bad_input_fails_cleanly_and_never_panics() {
             "{out:?}"
         );
     }
-    eprintln!("hit, separated, overlapped, failed: {states:?}");
+    eprintln!("hit, separated, overlapped, failed: {states:?}; {prepared_count} prepared");
     assert!(states.iter().all(|&n| n > 100), "{states:?}");
+    assert!(prepared_count > 5_000, "{prepared_count} prepared");
 }

@@ -35,7 +35,23 @@ pub struct SimplexCache {
     pub index_b: [u8; 4],
 }
 
-/// Input of [`shape_distance`] in space.
+/// Input of [`shape_distance`] in space: the plane's
+/// [`DistanceInput`](crate::geometry::DistanceInput) of 3D proxies and poses.
+///
+/// ```
+/// use bevy_ccd::geometry::d3::{DistanceInput, Pose, ShapeProxy, SimplexCache, shape_distance};
+/// use glam::{Quat, Vec3};
+/// let ball = ShapeProxy::new(&[Vec3::ZERO], 0.5).unwrap();
+/// let input = DistanceInput {
+///     proxy_a: &ball,
+///     proxy_b: &ball,
+///     pose_a: Pose::IDENTITY,
+///     pose_b: Pose::new(Vec3::new(3.0, 0.0, 0.0), Quat::IDENTITY),
+///     use_radii: true,
+/// };
+/// let out = shape_distance(&input, &mut SimplexCache::default());
+/// assert!((out.distance - 2.0).abs() < 1e-6);
+/// ```
 pub type DistanceInput<'a> = crate::geometry::DistanceInput<'a, ShapeProxy, Pose>;
 
 #[derive(Clone, Copy, Debug, Default)]

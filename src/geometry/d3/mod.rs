@@ -40,7 +40,7 @@ pub use shape::{
 };
 pub use sweep::Sweep;
 
-pub use crate::geometry::query::toi::space::time_of_impact;
+pub use crate::geometry::query::toi::space::{ToiBody, time_of_impact, time_of_impact_prepared};
 pub use crate::geometry::query::toi::{ToiConfig, ToiFailure, ToiState};
 
 /// Input of [`time_of_impact`] in space: the plane's
@@ -58,4 +58,17 @@ pub type ToiInput = crate::geometry::ToiInput<ShapeProxy, Sweep>;
 
 /// Output of [`time_of_impact`] in space: the plane's
 /// [`ToiOutput`](crate::geometry::ToiOutput) with a 3D point and normal.
+///
+/// ```
+/// use bevy_ccd::geometry::d3::{ShapeProxy, Sweep, ToiInput, ToiOutput, ToiState, time_of_impact};
+/// use glam::{Quat, Vec3};
+/// // Two balls 1 m across, 3 m apart, one moving 4 m toward the other.
+/// let ball = ShapeProxy::new(&[Vec3::ZERO], 0.5).unwrap();
+/// let fired = Sweep::new(Vec3::ZERO, Vec3::ZERO, Quat::IDENTITY, Vec3::X * 4.0, Vec3::ZERO);
+/// let still = Sweep::stationary(Vec3::ZERO, Vec3::X * 3.0, Quat::IDENTITY);
+/// let out: ToiOutput = time_of_impact(&ToiInput::new(ball, fired, ball, still));
+/// assert_eq!(out.state, ToiState::Hit);
+/// // The surfaces a slop apart, 2.5 m out; the normal from A to B.
+/// assert!((out.normal - Vec3::X).length() < 1e-5 && (out.point.x - 2.5).abs() < 0.01);
+/// ```
 pub type ToiOutput = crate::geometry::ToiOutput<glam::Vec3>;

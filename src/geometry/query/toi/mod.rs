@@ -99,7 +99,7 @@ use crate::geometry::constants::{MAX_POLYGON_VERTICES, MAX_WORLD_COORDINATE, TOI
 use crate::geometry::dim::{D2, Vector};
 use crate::geometry::shape::proxy::ShapeProxy;
 use crate::geometry::sweep::Sweep;
-use search::{Frame, Side, ToiDim};
+use search::{Frame, Side};
 
 /// What the 2D query needs of one body that does not depend on the other (see [`Frame`]).
 pub(crate) type BodyFrame = Frame<D2>;
@@ -321,11 +321,8 @@ impl ToiBody {
     /// Checks a body as [`time_of_impact`] does (finite, within [`MAX_WORLD_COORDINATE`], a
     /// radius not below zero, one to [`MAX_POLYGON_VERTICES`] points) and prepares it.
     pub fn new(proxy: ShapeProxy, sweep: Sweep) -> Result<Self, ToiFailure> {
-        if !D2::body_ok(&sweep, &proxy) {
-            D2::diagnose_body(&sweep, &proxy)?;
-        }
         Ok(Self {
-            frame: BodyFrame::new(&sweep, &proxy),
+            frame: search::prepare::<D2>(&proxy, &sweep)?,
             proxy,
             sweep,
         })

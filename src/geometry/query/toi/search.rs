@@ -277,6 +277,19 @@ pub(crate) fn time_of_impact_prepared_in<D: ToiDim>(
     screened_search(a, b, max_fraction, config)
 }
 
+/// Checks a body as [`validate`] does and computes its frame: what a prepared body
+/// (`ToiBody`, in the plane and in space) holds beside its shape and motion.
+#[inline]
+pub(crate) fn prepare<D: ToiDim>(
+    proxy: &D::Proxy,
+    sweep: &D::Sweep,
+) -> Result<Frame<D>, ToiFailure> {
+    if !D::body_ok(sweep, proxy) {
+        D::diagnose_body(sweep, proxy)?;
+    }
+    Ok(Frame::new(sweep, proxy))
+}
+
 /// One body of a query as the search reads it: its shape and motion, and its frame.
 #[derive(Clone, Copy)]
 pub(crate) struct Side<'a, D: ToiDim> {

@@ -40,9 +40,10 @@ use crate::geometry::d3::{DistanceInput, Pose, ShapeProxy, SimplexCache, Sweep, 
 use crate::geometry::dim::D3;
 use crate::geometry::query::gjk::DistanceOutput;
 use crate::geometry::query::toi::search::{
-    Motion, SeparationFunction, SeparationKind, ToiDim, time_of_impact_in,
+    Frame, Motion, SeparationFunction, SeparationKind, Side, ToiDim, prepare, time_of_impact_in,
+    time_of_impact_prepared_in,
 };
-use crate::geometry::query::toi::{ToiFailure, ToiInput, ToiOutput};
+use crate::geometry::query::toi::{ToiConfig, ToiFailure, ToiInput, ToiOutput};
 use crate::geometry::shape::proxy::support;
 
 /// The squared sine below which two edges count as parallel (Box3D's 0.005).
@@ -78,6 +79,95 @@ const UNIT_QUATERNION_TOLERANCE: f32 = 0.01;
 /// ```
 pub fn time_of_impact(input: &ToiInput<ShapeProxy, Sweep>) -> ToiOutput<Vec3> {
     time_of_impact_in::<D3>(input)
+}
+
+/// [`time_of_impact`] of two prepared bodies in space: the same answer, bit for bit, without
+/// checking or preparing either body again (see [`ToiBody`]). The plane's
+/// [`time_of_impact_prepared`](crate::geometry::time_of_impact_prepared) in space.
+///
+/// `max_fraction` and `config` are as in [`ToiInput`]; when they are out of range the answer
+/// is [`ToiState::Failed`](crate::geometry::ToiState::Failed), as from [`time_of_impact`].
+///
+/// ```
+/// use bevy_ccd::geometry::d3::{
+///     Cuboid, Shape, Sphere, Sweep, ToiBody, ToiConfig, ToiState, time_of_impact_prepared,
+/// };
+/// use glam::{Quat, Vec3};
+/// // One bullet against two plates: the bullet is checked and prepared once.
+/// let ball = Shape::from(Sphere::new(0.1).unwrap()).proxy();
+/// let plate = Shape::from(Cuboid::new(Vec3::new(0.005, 5.0, 5.0), 0.0).unwrap()).proxy();
+/// let sweep = Sweep::new(Vec3::ZERO, Vec3::ZERO, Quat::IDENTITY, Vec3::X * 100.0, Vec3::ZERO);
+/// let bullet = ToiBody::new(ball, sweep).unwrap();
+/// let config = ToiConfig::default();
+/// for (x, state) in [(5.0, ToiState::Hit), (-5.0, ToiState::Separated)] {
+///     let at_rest = Sweep::stationary(Vec3::ZERO, Vec3::X * x, Quat::IDENTITY);
+///     let plate = ToiBody::new(plate, at_rest).unwrap();
+///     assert_eq!(time_of_impact_prepared(&bullet, &plate, 1.0, &config).state, state);
+/// }
+/// ```
+pub fn time_of_impact_prepared(
+    a: &ToiBody,
+    b: &ToiBody,
+    max_fraction: f32,
+    config: &ToiConfig,
+) -> ToiOutput<Vec3> {
+    time_of_impact_prepared_in(a.side(), b.side(), max_fraction, config)
+}
+
+/// A body of a time-of-impact query in space, checked and prepared once for any number of
+/// queries: its shape, its motion, its start rotation made unit and its reach. The plane's
+/// [`ToiBody`](crate::geometry::ToiBody) in space.
+///
+/// Its fields are private, so the prepared values always belong to the shape and motion it
+/// holds.
+///
+/// ```
+/// use bevy_ccd::geometry::d3::{Shape, Sphere, Sweep, ToiBody, ToiFailure};
+/// use glam::{Quat, Vec3};
+/// let ball = Shape::from(Sphere::new(0.1).unwrap()).proxy();
+/// let sweep = Sweep::new(Vec3::ZERO, Vec3::ZERO, Quat::IDENTITY, Vec3::X * 3.0, Vec3::Z);
+/// let body = ToiBody::new(ball, sweep).unwrap();
+/// assert_eq!(body.sweep(), &sweep);
+/// // Bad input is refused when the body is made, with the query's failure.
+/// let bad = Sweep { c1: Vec3::NAN, ..sweep };
+/// assert_eq!(ToiBody::new(ball, bad).unwrap_err(), ToiFailure::NonFinite);
+/// ```
+#[derive(Clone, Copy, Debug)]
+pub struct ToiBody {
+    proxy: ShapeProxy,
+    sweep: Sweep,
+    frame: Frame<D3>,
+}
+
+impl ToiBody {
+    /// Checks a body as [`time_of_impact`] does (finite, within [`MAX_WORLD_COORDINATE`], a
+    /// radius not below zero, one to [`MAX_HULL_VERTICES`] points, a start rotation of unit
+    /// length to 1 %) and prepares it.
+    pub fn new(proxy: ShapeProxy, sweep: Sweep) -> Result<Self, ToiFailure> {
+        Ok(Self {
+            frame: prepare::<D3>(&proxy, &sweep)?,
+            proxy,
+            sweep,
+        })
+    }
+
+    /// The body's shape.
+    pub fn proxy(&self) -> &ShapeProxy {
+        &self.proxy
+    }
+
+    /// The body's motion over the step.
+    pub fn sweep(&self) -> &Sweep {
+        &self.sweep
+    }
+
+    fn side(&self) -> Side<'_, D3> {
+        Side {
+            proxy: &self.proxy,
+            sweep: &self.sweep,
+            frame: self.frame,
+        }
+    }
 }
 
 /// A body's turn: the unit axis and the angle over the step (rad, not negative).
