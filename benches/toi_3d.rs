@@ -4,12 +4,15 @@
 //!
 //! # What runs
 //!
-//! Every case goes through four implementations, their inputs built from the same JSON
-//! numbers before any timing:
+//! Every case goes through five implementations, ours in two ways, their inputs built from
+//! the same JSON numbers before any timing:
 //!
-//! - `ours`: [`bevy_ccd::geometry::d3::time_of_impact`] on the plain input, the *angle* model
-//!   (constant angular velocity about a fixed world axis, any number of turns). It checks and
-//!   prepares both bodies in every call, so it is timed with that work inside;
+//! - `ours`: [`bevy_ccd::geometry::d3::time_of_impact_prepared`] on two [`ToiBody`]s built
+//!   before any timing, the *angle* model (constant angular velocity about a fixed world axis,
+//!   any number of turns), as the peers take their shapes and motions prepared;
+//! - `ours_input`: [`bevy_ccd::geometry::d3::time_of_impact`] on the plain input, which checks
+//!   and prepares both bodies in every call: the same answers bit for bit (asserted), timed for
+//!   reference only, without a ratio;
 //! - `parry_sweep`: parry3d's `sweep_time_of_impact`, its port of Box2D's `b2TimeOfImpact`
 //!   (`ToiProxy` point clouds, slop 0.005 m). Its `Sweep` holds the rotations at both ends
 //!   (`q0` and `exp(w) q0`, built before timing) and blends them by nlerp: the *nlerp* model.
@@ -56,7 +59,9 @@ use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::hint::black_box;
 
-use bevy_ccd::geometry::d3::{ToiInput, ToiOutput, time_of_impact};
+use bevy_ccd::geometry::d3::{
+    ToiBody, ToiInput, ToiOutput, time_of_impact, time_of_impact_prepared,
+};
 use glam::{Quat, Vec3};
 use parry3d::math::Pose;
 use parry3d::query::sweep_toi::{
@@ -69,7 +74,8 @@ use parry3d::query::{
 use parry3d::shape::{Ball, Capsule, ConvexPolyhedron, RoundShape, Segment, Shape};
 use reference_3d::{Case, Model, Pair, Reported, SLOP, Verdict, load_cases, score_reported};
 use toi_common::{
-    RunMode, fmt_len, fmt_ns, fmt_ratio, guarded, median, target_dir, time_interleaved,
+    RunMode, fmt_len, fmt_ns, fmt_ratio, guarded, median, median_ns, ratio, target_dir,
+    time_interleaved,
 };
 
 /// The families, in the README's order.
@@ -86,28 +92,20 @@ const FAMILIES: [&str; 7] = [
 /// The speed target: ours over each peer, by the per-case rule.
 const RATIO_TARGET: f64 = 0.75;
 
-/// Verdict columns of the table, in order.
-const VERDICTS: [Verdict; 6] = [
-    Verdict::Correct,
-    Verdict::Miss,
-    Verdict::Late,
-    Verdict::Early,
-    Verdict::Ghost,
-    Verdict::Failed,
-];
-
 /// One of the implementations compared.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
 enum Engine {
     Ours,
+    OursInput,
     ParrySweep,
     ParryCast,
     ParryNonlinear,
 }
 
 impl Engine {
-    const ALL: [Engine; 4] = [
+    const ALL: [Engine; 5] = [
         Engine::Ours,
+        Engine::OursInput,
         Engine::ParrySweep,
         Engine::ParryCast,
         Engine::ParryNonlinear,
@@ -121,6 +119,7 @@ impl Engine {
     fn name(self) -> &'static str {
         match self {
             Engine::Ours => "ours",
+            Engine::OursInput => "ours_input",
             Engine::ParrySweep => "parry_sweep",
             Engine::ParryCast => "parry_cast",
             Engine::ParryNonlinear => "parry_nonlinear",
@@ -132,7 +131,9 @@ impl Engine {
     fn model(self) -> Model {
         match self {
             Engine::ParrySweep => Model::Nlerp,
-            Engine::Ours | Engine::ParryCast | Engine::ParryNonlinear => Model::Angle,
+            Engine::Ours | Engine::OursInput | Engine::ParryCast | Engine::ParryNonlinear => {
+                Model::Angle
+            }
         }
     }
 }
@@ -247,8 +248,31 @@ fn parry_sweep_case(case: &Case) -> ParrySweepCase {
 // ---------------------------------------------------------------------------------------------
 
 #[inline(never)]
-fn call_ours(input: &ToiInput) -> ToiOutput {
+fn call_ours(bodies: &OursCase) -> ToiOutput {
+    time_of_impact_prepared(&bodies.a, &bodies.b, 1.0, &bodies.input.config)
+}
+
+#[inline(never)]
+fn call_ours_input(input: &ToiInput) -> ToiOutput {
     time_of_impact(input)
+}
+
+/// A case as ours takes it: two prepared bodies, and the plain input they come from.
+struct OursCase {
+    a: ToiBody,
+    b: ToiBody,
+    input: ToiInput,
+}
+
+impl OursCase {
+    fn new(input: ToiInput) -> Self {
+        let body = |proxy, sweep| ToiBody::new(proxy, sweep).expect("the shared cases are valid");
+        Self {
+            a: body(input.proxy_a, input.sweep_a),
+            b: body(input.proxy_b, input.sweep_b),
+            input,
+        }
+    }
 }
 
 #[inline(never)]
@@ -372,7 +396,7 @@ impl Tally {
 /// Every implementation's input for one case; `None` where a peer could not take the case
 /// (scored failed, not timed).
 struct Inputs {
-    ours: ToiInput,
+    ours: OursCase,
     parry_sweep: ParrySweepCase,
     parry: Option<ParryCase>,
 }
@@ -381,7 +405,7 @@ impl Inputs {
     fn has(&self, engine: Engine) -> bool {
         match engine {
             Engine::ParryCast | Engine::ParryNonlinear => self.parry.is_some(),
-            Engine::Ours | Engine::ParrySweep => true,
+            Engine::Ours | Engine::OursInput | Engine::ParrySweep => true,
         }
     }
 
@@ -389,6 +413,7 @@ impl Inputs {
     fn answer(&self, engine: Engine) -> Option<Answer> {
         Some(match engine {
             Engine::Ours => interpret_ours(&call_ours(&self.ours)),
+            Engine::OursInput => interpret_ours(&call_ours_input(&self.ours.input)),
             Engine::ParrySweep => interpret_parry_sweep(&call_parry_sweep(&self.parry_sweep)),
             Engine::ParryCast => interpret_parry_cast(&call_parry_cast(self.parry.as_ref()?)),
             Engine::ParryNonlinear => {
@@ -403,6 +428,9 @@ impl Inputs {
         match (engine, &self.parry) {
             (Engine::Ours, _) => {
                 black_box(call_ours(black_box(&self.ours)));
+            }
+            (Engine::OursInput, _) => {
+                black_box(call_ours_input(black_box(&self.ours.input)));
             }
             (Engine::ParrySweep, _) => {
                 black_box(call_parry_sweep(black_box(&self.parry_sweep)));
@@ -445,11 +473,17 @@ impl Family {
         for i in 0..family.cases.len() {
             let case = &family.cases[i];
             let inputs = Inputs {
-                ours: case.input(),
+                ours: OursCase::new(case.input()),
                 parry_sweep: parry_sweep_case(case),
                 parry: parry_case(case).ok(),
             };
-            let pair = Pair::new(&inputs.ours);
+            let pair = Pair::new(&inputs.ours.input);
+            assert_eq!(
+                call_ours(&inputs.ours),
+                call_ours_input(&inputs.ours.input),
+                "{}: prepared and plain inputs answer differently",
+                case.id
+            );
             let mut verdicts = BTreeMap::new();
             for engine in Engine::ALL {
                 let tally = family.tallies.get_mut(&engine).expect("a tally per engine");
@@ -471,23 +505,14 @@ impl Family {
 
     /// The median over cases of the per-case time of `engine` (ns).
     fn median_ns(&self, engine: Engine) -> Option<f64> {
-        let times: Vec<f64> = self
-            .ns
-            .iter()
-            .filter_map(|m| m.get(&engine).copied())
-            .collect();
-        median(&times)
+        median_ns(&self.ns, engine)
     }
 
     /// The median over the cases both answer correctly of the per-case ratio ours / `peer`,
     /// and the number of those cases.
     fn ratio(&self, peer: Engine) -> (Option<f64>, usize) {
         let correct = |i: usize, e: Engine| self.verdicts[i][&e] == Some(Verdict::Correct);
-        let ratios: Vec<f64> = (0..self.ns.len())
-            .filter(|&i| correct(i, Engine::Ours) && correct(i, peer))
-            .filter_map(|i| Some(self.ns[i].get(&Engine::Ours)? / self.ns[i].get(&peer)?))
-            .collect();
-        (median(&ratios), ratios.len())
+        ratio(&self.ns, Engine::Ours, peer, correct)
     }
 
     /// Times every case on its own, the implementations interleaved.
@@ -543,14 +568,16 @@ fn report(families: &[Family], rounds: usize) -> String {
          the implementations interleaved, {rounds} rounds), and the median over cases of the \
          per-case ratio ours / peer over the cases both answer correctly (their number in \
          parentheses). Scored against the reference of each one's model (ours, parry_cast, \
-         parry_nonlinear: angle; parry_sweep: nlerp). Target: at most {RATIO_TARGET}.\n"
+         parry_nonlinear: angle; parry_sweep: nlerp). Ours is timed on prepared bodies, as the \
+         peers on their prepared shapes; ours_input on the plain input (the same answers, for \
+         reference). Target: at most {RATIO_TARGET}.\n"
     );
     let _ = writeln!(
         out,
-        "| family | cases | ours | parry_sweep | parry_cast | parry_nonlinear \
+        "| family | cases | ours | ours_input | parry_sweep | parry_cast | parry_nonlinear \
          | ours / parry_sweep | ours / parry_cast | ours / parry_nonlinear |"
     );
-    let _ = writeln!(out, "|---|--:|--:|--:|--:|--:|--:|--:|--:|");
+    let _ = writeln!(out, "|---|--:|--:|--:|--:|--:|--:|--:|--:|--:|");
     for f in families {
         let ns: Vec<String> = Engine::ALL
             .iter()
@@ -581,10 +608,13 @@ fn report(families: &[Family], rounds: usize) -> String {
     for f in families {
         let cells: Vec<String> = Engine::ALL
             .iter()
+            .filter(|&&e| e != Engine::OursInput)
             .map(|e| {
                 let t = &f.tallies[e];
-                let counts: Vec<String> =
-                    VERDICTS.iter().map(|&v| t.count(v).to_string()).collect();
+                let counts: Vec<String> = Verdict::ALL
+                    .iter()
+                    .map(|&v| t.count(v).to_string())
+                    .collect();
                 format!(
                     "{} {} ({})",
                     counts.join("/"),
