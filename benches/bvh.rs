@@ -46,7 +46,8 @@ mod level_3d;
 use bevy_ccd::geometry::d3::Aabb as Aabb3;
 use bevy_ccd::geometry::{Aabb, Bvh};
 use bevy_ccd_fixtures::SceneRng;
-use criterion::{Criterion, criterion_group, criterion_main};
+use criterion::measurement::WallTime;
+use criterion::{BenchmarkGroup, Criterion, criterion_group, criterion_main};
 use glam::{Vec2, Vec3, Vec3A};
 use obvhs::BvhBuildParams;
 use obvhs::aabb::Aabb as OAabb;
@@ -226,11 +227,7 @@ fn bench_size(c: &mut Criterion, n: usize, label: &str) {
         ours.depth(),
     );
 
-    let mut group = c.benchmark_group(format!("bvh-build-{label}"));
-    group
-        .sample_size(10)
-        .warm_up_time(Duration::from_millis(500));
-    group.measurement_time(Duration::from_secs(2));
+    let mut group = short_group(c, format!("bvh-build-{label}"));
     group.bench_function("ours", |bench| bench.iter(|| ours.build(black_box(&items))));
     for (name, t) in &mut theirs {
         group.bench_function(*name, |bench| bench.iter(|| t.build(black_box(&aabbs))));
@@ -238,11 +235,7 @@ fn bench_size(c: &mut Criterion, n: usize, label: &str) {
     group.finish();
 
     let mut out = Vec::with_capacity(1024);
-    let mut group = c.benchmark_group(format!("bvh-query-{label}"));
-    group
-        .sample_size(10)
-        .warm_up_time(Duration::from_millis(500));
-    group.measurement_time(Duration::from_secs(2));
+    let mut group = short_group(c, format!("bvh-query-{label}"));
     group.bench_function("ours", |bench| {
         bench.iter(|| {
             let mut total = 0;
@@ -357,11 +350,7 @@ fn bench_3d(c: &mut Criterion) {
         ours.depth(),
     );
 
-    let mut group = c.benchmark_group("bvh3d-build-100k");
-    group
-        .sample_size(10)
-        .warm_up_time(Duration::from_millis(500));
-    group.measurement_time(Duration::from_secs(2));
+    let mut group = short_group(c, "bvh3d-build-100k");
     group.bench_function("ours", |bench| bench.iter(|| ours.build(black_box(&items))));
     group.bench_function("parry3d", |bench| {
         bench.iter(|| {
@@ -374,11 +363,7 @@ fn bench_3d(c: &mut Criterion) {
     group.finish();
 
     let mut out = Vec::with_capacity(1024);
-    let mut group = c.benchmark_group("bvh3d-query-100k");
-    group
-        .sample_size(10)
-        .warm_up_time(Duration::from_millis(500));
-    group.measurement_time(Duration::from_secs(2));
+    let mut group = short_group(c, "bvh3d-query-100k");
     group.bench_function("ours", |bench| {
         bench.iter(|| {
             let mut total = 0;
@@ -413,6 +398,16 @@ fn bench_3d(c: &mut Criterion) {
         })
     });
     group.finish();
+}
+
+/// A criterion group of ten samples over two seconds (a build of 100,000 items is slow).
+fn short_group(c: &mut Criterion, name: impl Into<String>) -> BenchmarkGroup<'_, WallTime> {
+    let mut group = c.benchmark_group(name);
+    group
+        .sample_size(10)
+        .warm_up_time(Duration::from_millis(500))
+        .measurement_time(Duration::from_secs(2));
+    group
 }
 
 fn benches(c: &mut Criterion) {
