@@ -74,13 +74,14 @@ mod oracle;
 #[allow(dead_code)]
 #[path = "../tests/support/reference.rs"]
 mod reference;
+#[allow(dead_code)]
+mod toi_common;
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::hint::black_box;
-use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::path::PathBuf;
-use std::time::{Duration, Instant, SystemTime};
+use std::time::{Duration, SystemTime};
 
 use bevy_ccd::geometry::{ToiBody, ToiInput, ToiOutput, time_of_impact, time_of_impact_prepared};
 use criterion::{Criterion, Throughput};
@@ -94,6 +95,10 @@ use parry2d::query::sweep_toi::{
 };
 use parry2d::query::{NonlinearRigidMotion, ShapeCastStatus, cast_shapes_nonlinear};
 use parry2d::shape::{Ball, Capsule, ConvexPolygon, RoundShape, Segment, Shape};
+use toi_common::{
+    RunMode, fmt_len, fmt_ns, fmt_ratio, guarded, median, median_ns, ratio, target_dir,
+    time_interleaved,
+};
 
 /// The families: the README's, in its order, then the generated one.
 const FAMILIES: [&str; 8] = [
@@ -425,11 +430,6 @@ fn interpret_parry_nonlinear(
     }
 }
 
-/// Runs `f`, turning a panic into `None` (the panic message is silenced by the caller's hook).
-fn guarded<T>(f: impl FnOnce() -> T) -> Option<T> {
-    catch_unwind(AssertUnwindSafe(f)).ok()
-}
-
 // ---------------------------------------------------------------------------------------------
 // Scoring
 // ---------------------------------------------------------------------------------------------
@@ -703,69 +703,20 @@ impl<'a> Family<'a> {
 
     /// The median over cases of the per-case time of `engine` (ns).
     fn median_ns(&self, engine: Engine) -> Option<f64> {
-        let times: Vec<f64> = self
-            .ns
-            .iter()
-            .filter_map(|m| m.get(&engine).copied())
-            .collect();
-        median(&times)
+        median_ns(&self.ns, engine)
     }
 
     /// The median over the cases both answer correctly of the per-case ratio ours / `peer`,
     /// and the number of those cases.
     fn ratio(&self, peer: Engine) -> (Option<f64>, usize) {
         let correct = |i: usize, e: Engine| self.verdicts[i][&e] == Some(Verdict::Correct);
-        let ratios: Vec<f64> = (0..self.ns.len())
-            .filter(|&i| correct(i, Engine::Ours) && correct(i, peer))
-            .filter_map(|i| Some(self.ns[i].get(&Engine::Ours)? / self.ns[i].get(&peer)?))
-            .collect();
-        (median(&ratios), ratios.len())
+        ratio(&self.ns, Engine::Ours, peer, correct)
     }
 }
 
 // ---------------------------------------------------------------------------------------------
 // Timing
 // ---------------------------------------------------------------------------------------------
-
-/// How the binary was invoked, mirroring criterion's own reading of the arguments.
-struct RunMode {
-    /// `cargo bench` (not `cargo test -p bevy_ccd_benches --benches`, `--test`, `--list` or `--profile-time`):
-    /// criterion measures and saves estimates.
-    measuring: bool,
-    /// `--list`: criterion only lists the benchmarks; no table.
-    listing: bool,
-    /// `TOI_BENCH_PROFILE=n`: no timing, `n` extra calls per case and implementation.
-    profile: Option<usize>,
-}
-
-impl RunMode {
-    fn from_args() -> Self {
-        let args: Vec<String> = std::env::args().collect();
-        let has = |flag: &str| args.iter().any(|a| a == flag);
-        let testing = !has("--bench") || has("--test");
-        let listing = has("--list");
-        let profiling = args.iter().any(|a| a.starts_with("--profile-time"));
-        RunMode {
-            measuring: !testing && !listing && !profiling,
-            listing,
-            profile: std::env::var("TOI_BENCH_PROFILE")
-                .ok()
-                .and_then(|n| n.parse().ok()),
-        }
-    }
-}
-
-/// The cargo target directory: `CARGO_TARGET_DIR`, else three levels above this executable
-/// (`<target>/<profile>/deps/toi-<hash>`), else `target`.
-fn target_dir() -> PathBuf {
-    if let Some(dir) = std::env::var_os("CARGO_TARGET_DIR") {
-        return PathBuf::from(dir);
-    }
-    std::env::current_exe()
-        .ok()
-        .and_then(|exe| exe.ancestors().nth(3).map(PathBuf::from))
-        .unwrap_or_else(|| PathBuf::from("target"))
-}
 
 /// Where criterion writes its estimates (its own order of preference).
 fn criterion_dir() -> PathBuf {
@@ -793,44 +744,16 @@ fn criterion_median(group: &str, function: &str, since: SystemTime) -> Option<f6
         .filter(|ns| ns.is_finite() && *ns > 0.0)
 }
 
-/// How long one timed batch of calls should take: long enough that reading the clock is a
-/// small part of it, short enough that a batch rarely straddles a preemption.
-const BATCH: Duration = Duration::from_micros(4);
-
-/// Times every case on its own (see the module documentation): `rounds` rounds of one batch
-/// per implementation, the order rotating, after a warm-up batch that also sizes the batches.
+/// Times every case on its own, the implementations interleaved (see the module
+/// documentation).
 fn time_cases(family: &mut Family<'_>, rounds: usize) {
     family.ns = family
         .inputs
         .iter()
         .map(|inputs| {
             let engines: Vec<Engine> = Engine::ALL.into_iter().filter(|&e| inputs.has(e)).collect();
-            let batch = |engine: Engine, reps: u32| {
-                let start = Instant::now();
-                for _ in 0..reps {
-                    inputs.call(engine);
-                }
-                start.elapsed().as_secs_f64() * 1e9 / f64::from(reps)
-            };
-            let reps: Vec<u32> = engines
-                .iter()
-                .map(|&e| {
-                    let ns = batch(e, 4).max(1.0);
-                    ((BATCH.as_secs_f64() * 1e9 / ns).ceil() as u32).clamp(1, 256)
-                })
-                .collect();
-            let mut times: Vec<Vec<f64>> = vec![Vec::with_capacity(rounds); engines.len()];
-            for round in 0..rounds {
-                for k in 0..engines.len() {
-                    let j = (round + k) % engines.len();
-                    times[j].push(batch(engines[j], reps[j]));
-                }
-            }
-            engines
-                .iter()
-                .zip(&times)
-                .filter_map(|(&e, t)| Some((e, median(t)?)))
-                .collect()
+            let ns = time_interleaved(&engines, rounds, |e| inputs.call(e));
+            engines.into_iter().zip(ns).collect()
         })
         .collect();
 }
@@ -863,31 +786,12 @@ fn bench_family(c: &mut Criterion, family: &mut Family<'_>, mode: &RunMode, sinc
             family.tally(engine).criterion_ns = ns.map(|ns| ns / timed as f64);
         }
     }
-    time_cases(family, if mode.measuring { 31 } else { 3 });
+    time_cases(family, mode.rounds());
 }
 
 // ---------------------------------------------------------------------------------------------
 // The table
 // ---------------------------------------------------------------------------------------------
-
-fn median(values: &[f64]) -> Option<f64> {
-    let mut v = values.to_vec();
-    v.sort_by(f64::total_cmp);
-    (!v.is_empty()).then(|| v[v.len() / 2])
-}
-
-fn fmt_ns(ns: Option<f64>) -> String {
-    ns.map_or_else(|| "–".into(), |ns| format!("{ns:.0}"))
-}
-
-fn fmt_len(m: Option<f64>) -> String {
-    m.map_or_else(|| "–".into(), |m| format!("{m:.1e}"))
-}
-
-/// A ratio cell: the median per-case ratio and, in parentheses, the cases it is taken over.
-fn fmt_ratio((r, n): (Option<f64>, usize)) -> String {
-    r.map_or_else(|| format!("– ({n})"), |r| format!("{r:.2} ({n})"))
-}
 
 /// Whether ours is within [`RATIO_TARGET`] of every target peer on the family, and if not,
 /// how much time it must shed against the worst one.
@@ -1029,7 +933,7 @@ fn report(families: &[Family<'_>], mode: &RunMode) -> String {
          prepared bodies, as the peers on their prepared sweeps; ours_input on the plain \
          input (the same answers, for reference). Target: at most {RATIO_TARGET} against \
          box2d and parry_sweep.\n",
-        if mode.measuring { 31 } else { 3 },
+        mode.rounds(),
     );
     summary_table(&mut out, families);
     for family in families {
@@ -1087,7 +991,7 @@ fn selected_families() -> Vec<&'static str> {
 }
 
 fn main() {
-    let mode = RunMode::from_args();
+    let mode = RunMode::from_args("TOI_BENCH_PROFILE");
     let mut criterion = Criterion::default()
         .warm_up_time(Duration::from_secs(1))
         .measurement_time(Duration::from_secs(3))

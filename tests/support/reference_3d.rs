@@ -9,9 +9,11 @@
 //!   disjoint, minus the penetration depth by the separating axis test over the face normals
 //!   of both and the cross products of their edges when they overlap (complete for convex
 //!   polyhedra; two cores of one or two points never overlap by a positive depth);
-//! * the scoring rules of the shared 3D oracle (`shared/toi-cases-3d/README.md`).
+//! * the scoring rules of the shared 3D oracle (`shared/toi-cases-3d/README.md`), under
+//!   either of its rotation models ([`Model`]), for ours and for other engines' results.
 //!
-//! Included with `#[path]` by the 3D tests only, so the 2D test binaries do not build it.
+//! Included with `#[path]` by the 3D tests and the 3D time-of-impact bench only, so the 2D
+//! test binaries do not build it.
 
 #![allow(dead_code)]
 
@@ -120,10 +122,15 @@ impl Body {
         }
     }
 
-    /// The core's points in the world at `t`.
+    /// The core's points in the world at `t` (angle model).
     pub fn world(&self, t: f64) -> Vec<DVec3> {
+        self.world_model(Model::Angle, t)
+    }
+
+    /// The core's points in the world at `t` under `model`.
+    pub fn world_model(&self, model: Model, t: f64) -> Vec<DVec3> {
         let c = self.c0 + (self.c1 - self.c0) * t;
-        let q = DQuat::from_scaled_axis(self.w * t) * self.q0;
+        let q = self.rotation_model(model, t);
         self.core
             .points
             .iter()
@@ -131,9 +138,43 @@ impl Body {
             .collect()
     }
 
-    /// The rotation at `t`.
+    /// The rotation at `t` (angle model).
     pub fn rotation(&self, t: f64) -> DQuat {
-        DQuat::from_scaled_axis(self.w * t) * self.q0
+        self.rotation_model(Model::Angle, t)
+    }
+
+    /// The rotation at `t` under `model` (README, "Motion"): `exp(t [w]x) R(q0)`, or the
+    /// normalised blend of `q0` and the end rotation `exp(w) q0` taken on the shorter arc.
+    pub fn rotation_model(&self, model: Model, t: f64) -> DQuat {
+        match model {
+            Model::Angle => DQuat::from_scaled_axis(self.w * t) * self.q0,
+            Model::Nlerp => {
+                let q1 = DQuat::from_scaled_axis(self.w) * self.q0;
+                let q1 = if self.q0.dot(q1) < 0.0 { -q1 } else { q1 };
+                (self.q0 * (1.0 - t) + q1 * t).normalize()
+            }
+        }
+    }
+}
+
+/// The rotation model a result follows (README, "Motion").
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Model {
+    /// Constant angular velocity `w` about a fixed world axis, any number of turns: ours and
+    /// parry's `cast_shapes_nonlinear`.
+    Angle,
+    /// The normalised blend of the start and end quaternions: Box2D's `b2Sweep` and parry's
+    /// port of it (`sweep_time_of_impact`). Defined by the oracle only below half a turn.
+    Nlerp,
+}
+
+impl Model {
+    /// The name the README uses.
+    pub fn name(self) -> &'static str {
+        match self {
+            Model::Angle => "angle",
+            Model::Nlerp => "nlerp",
+        }
     }
 }
 
@@ -305,14 +346,19 @@ impl Pair {
 
     /// The surface distance at `t` under the angle model.
     pub fn distance_at(&self, t: f64) -> f64 {
-        let (pa, pb) = (self.a.world(t), self.b.world(t));
+        self.distance_at_model(Model::Angle, t)
+    }
+
+    /// The surface distance at `t` under `model`.
+    pub fn distance_at_model(&self, model: Model, t: f64) -> f64 {
+        let (pa, pb) = (self.a.world_model(model, t), self.b.world_model(model, t));
         distance(
             &self.a.core,
             &pa,
-            self.a.rotation(t),
+            self.a.rotation_model(model, t),
             &self.b.core,
             &pb,
-            self.b.rotation(t),
+            self.b.rotation_model(model, t),
         )
     }
 }
@@ -348,6 +394,8 @@ pub struct Reference {
 #[derive(Deserialize, Clone, Debug)]
 pub struct Oracle {
     pub angle: Reference,
+    /// `None` when either body turns by half a turn or more.
+    pub nlerp: Option<Reference>,
 }
 
 #[derive(Deserialize, Clone, Debug)]
@@ -394,6 +442,14 @@ impl SweepJson {
 }
 
 impl Case {
+    /// The reference answer of a model; `None` for nlerp when a body turns by pi or more.
+    pub fn reference(&self, model: Model) -> Option<&Reference> {
+        match model {
+            Model::Angle => Some(&self.oracle.angle),
+            Model::Nlerp => self.oracle.nlerp.as_ref(),
+        }
+    }
+
     pub fn input(&self) -> ToiInput {
         ToiInput::new(
             self.a.proxy(),
@@ -415,22 +471,67 @@ pub enum Verdict {
     Failed,
 }
 
-/// Scores one result by the README's rules against the angle-model reference `r`, with the
-/// distance evaluated at the reported fraction by `pair`. Returns the verdict and, for hits
-/// and overlaps, the true surface distance there.
+impl Verdict {
+    /// Every verdict, in the README's order (a table's columns).
+    pub const ALL: [Verdict; 6] = [
+        Verdict::Correct,
+        Verdict::Miss,
+        Verdict::Late,
+        Verdict::Early,
+        Verdict::Ghost,
+        Verdict::Failed,
+    ];
+}
+
+/// The state of a result in the README's implementation-neutral terms, so other engines'
+/// results are scored by the same rules as ours.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Reported {
+    Hit,
+    Separated,
+    Overlapped,
+    Failed,
+}
+
+impl From<ToiState> for Reported {
+    fn from(state: ToiState) -> Self {
+        match state {
+            ToiState::Hit => Reported::Hit,
+            ToiState::Separated => Reported::Separated,
+            ToiState::Overlapped => Reported::Overlapped,
+            ToiState::Failed(_) => Reported::Failed,
+        }
+    }
+}
+
+/// Scores one of our results by the README's rules against the angle-model reference `r`,
+/// with the distance evaluated at the reported fraction by `pair`. Returns the verdict and,
+/// for hits and overlaps, the true surface distance there.
 pub fn score(pair: &Pair, r: &Reference, out: &ToiOutput) -> (Verdict, Option<f64>) {
-    let t = out.fraction as f64;
-    match out.state {
-        ToiState::Failed(_) => (Verdict::Failed, None),
-        ToiState::Separated => {
+    score_reported(pair, Model::Angle, r, out.state.into(), out.fraction as f64)
+}
+
+/// Scores a result of any implementation by the README's rules against the reference `r` of
+/// the model it follows, the distance evaluated under that model.
+pub fn score_reported(
+    pair: &Pair,
+    model: Model,
+    r: &Reference,
+    state: Reported,
+    t: f64,
+) -> (Verdict, Option<f64>) {
+    let d_at = |s: f64| pair.distance_at_model(model, s);
+    match state {
+        Reported::Failed => (Verdict::Failed, None),
+        Reported::Separated => {
             if r.min_dist >= -EPS {
                 (Verdict::Correct, None)
             } else {
                 (Verdict::Miss, None)
             }
         }
-        ToiState::Overlapped => {
-            let d = pair.distance_at(t);
+        Reported::Overlapped => {
+            let d = d_at(t);
             if d <= EPS {
                 (Verdict::Correct, Some(d))
             } else if r.min_dist > 4.0 * SLOP {
@@ -439,8 +540,8 @@ pub fn score(pair: &Pair, r: &Reference, out: &ToiOutput) -> (Verdict, Option<f6
                 (Verdict::Early, Some(d))
             }
         }
-        ToiState::Hit => {
-            let d = pair.distance_at(t);
+        Reported::Hit => {
+            let d = d_at(t);
             if t == 0.0 && r.d0 <= EPS {
                 return (Verdict::Correct, Some(d));
             }
@@ -460,7 +561,7 @@ pub fn score(pair: &Pair, r: &Reference, out: &ToiOutput) -> (Verdict, Option<f6
                 let n = 400;
                 for i in 0..=n {
                     let s = tt + (t - tt) * i as f64 / n as f64;
-                    if pair.distance_at(s) < -2.0 * SLOP {
+                    if d_at(s) < -2.0 * SLOP {
                         return (Verdict::Miss, Some(d));
                     }
                 }

@@ -56,11 +56,8 @@ pub type DistanceInput<'a> = crate::geometry::DistanceInput<'a, ShapeProxy, Pose
 
 #[derive(Clone, Copy, Debug, Default)]
 struct Vertex {
-    /// Support point of A (A's frame).
-    a: Vec3,
-    /// Support point of B (A's frame).
-    b: Vec3,
-    /// `b - a`.
+    /// `b - a`, B's support point less A's (A's frame); the points themselves are looked up
+    /// by index where the witnesses are made, so that a simplex stays small to copy.
     w: Vec3,
     /// Barycentric weight of this vertex in the closest point.
     weight: f32,
@@ -72,8 +69,6 @@ fn vertex(a: &ShapeProxy, b_points: &[Vec3], ia: usize, ib: usize) -> Vertex {
     let pa = a.points()[ia];
     let pb = b_points[ib];
     Vertex {
-        a: pa,
-        b: pb,
         w: pb - pa,
         weight: 1.0,
         ia: ia as u8,
@@ -233,12 +228,16 @@ impl Simplex {
             .any(|v| v.ia == ia && v.ib == ib)
     }
 
-    /// The closest points on A and B (A's frame) from the barycentric weights.
-    fn witnesses(&self) -> (Vec3, Vec3) {
+    /// The closest points on A and B (A's frame) from the barycentric weights, with A's points
+    /// and B's placed in A's frame.
+    fn witnesses(&self, a_points: &[Vec3], b_points: &[Vec3]) -> (Vec3, Vec3) {
         self.v[..self.count]
             .iter()
             .fold((Vec3::ZERO, Vec3::ZERO), |(pa, pb), v| {
-                (pa + v.a * v.weight, pb + v.b * v.weight)
+                (
+                    pa + a_points[v.ia as usize] * v.weight,
+                    pb + b_points[v.ib as usize] * v.weight,
+                )
             })
     }
 }
@@ -355,10 +354,10 @@ fn distance_capped(
     }
 
     let (mut pa, mut pb, mut distance) = if overlap {
-        let (pa, _) = simplex.witnesses();
+        let (pa, _) = simplex.witnesses(a.points(), b_points);
         (pa, pa, 0.0)
     } else {
-        let (pa, pb) = simplex.witnesses();
+        let (pa, pb) = simplex.witnesses(a.points(), b_points);
         (pa, pb, pa.distance(pb))
     };
     let normal = if distance > 0.0 {
