@@ -259,7 +259,7 @@ pub struct MovingTarget;
 /// hierarchy must be rebuilt before the next sweep.
 fn static_added(mut world: DeferredWorld, _: HookContext) {
     if let Some(mut workspace) = world.get_resource_mut::<CcdWorkspace>() {
-        workspace.statics_changed();
+        workspace.statics.changed();
     }
 }
 
@@ -277,7 +277,7 @@ fn static_shape_changed(mut world: DeferredWorld, context: HookContext) {
     if world.entity(context.entity).contains::<StaticCollider>() {
         static_removed(world, context);
     } else if let Some(mut workspace) = world.get_resource_mut::<CcdWorkspace>() {
-        workspace.part_removed(context.entity);
+        workspace.statics.part_removed(context.entity);
     }
 }
 

@@ -257,7 +257,7 @@ pub(crate) fn update_compounds(
     entities.clear();
     part_layers.clear();
     found.clear();
-    let frames = &workspace.child_frames;
+    let frames = &workspace.bodies.child_frames;
     for body in &owners {
         let Ok((Some(parts), _, _, transform)) = bodies.get(body) else {
             continue;

@@ -60,7 +60,7 @@ pub(crate) fn record_start(
             sweep.bypass_change_detection().resolved_valid = false;
         }
     }
-    workspace.child_frames.clear();
+    workspace.bodies.child_frames.clear();
     for (entity, transform, mut sweep, enabled, parent) in &mut children {
         let sweep = sweep.bypass_change_detection();
         sweep.recorded = enabled.0;
@@ -84,7 +84,7 @@ pub(crate) fn record_start(
             }
             Err(error) => {
                 sweep.start_position = Vec2::NAN;
-                workspace.child_frames.push((entity, Err(error)));
+                workspace.bodies.child_frames.push((entity, Err(error)));
             }
         }
     }
@@ -212,7 +212,7 @@ pub(crate) fn record_end(
         let pose = || pose_of(transform).map(|pose| (pose, body_scale(transform)));
         record_end_pose(pose, sweep, velocity, dt);
     };
-    let frames = &mut workspace.child_frames;
+    let frames = &mut workspace.bodies.child_frames;
     for (entity, transform, mut sweep, velocity, parent) in &mut children {
         let sweep = sweep.bypass_change_detection();
         if !sweep.recorded {
