@@ -11,7 +11,7 @@ use glam::Vec2;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use super::compound::Compounds;
-use super::gather::{GROUP_MIN_BODIES, Gather, ListQuery, Listing, list_bodies};
+use super::gather::{BodyShape, GROUP_MIN_BODIES, Gather, ListQuery, Listing, list_bodies};
 use super::hooks::{CcdHooks, ask};
 use super::outcome::CcdError;
 use super::parallel::{MAX_ITEMS, hand_out, pool, workers};
@@ -135,7 +135,12 @@ pub(crate) fn solve<H: CcdHooks + 'static>(
         entries.reserve_exact(most - entries.len());
         entries.resize(
             most,
-            BodyEntry::new(Entity::PLACEHOLDER, &StepPoses::default(), 1.0),
+            BodyEntry::new(
+                Entity::PLACEHOLDER,
+                &StepPoses::default(),
+                BodyShape::default(),
+                1.0,
+            ),
         );
     }
     let body_layers = BodyLayers {
