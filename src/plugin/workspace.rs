@@ -48,8 +48,8 @@ pub(crate) struct BodyEntry {
     pub(crate) flags: u8,
     /// Why the body was not swept, or the time of impact that failed.
     pub(crate) error: Option<CcdError>,
-    /// The shape's reach about its centre of mass ([`StepPoses`](super::StepPoses)' copy of the
-    /// collider's, times `scale`; a compound body's parts are placed at its scale already).
+    /// The shape's reach about its centre of mass (the [`Collider`](super::Collider)'s times
+    /// `scale`; a compound body's parts are placed at its scale already).
     pub(crate) reach: f32,
     /// The body's uniform world scale, which scales its collider and mass (see
     /// [`StepPoses`](super::StepPoses)' copy: 0 or NaN for a `Transform` that cannot be swept).
