@@ -62,6 +62,9 @@ pub struct Collider {
     /// The farthest any point of the shape is from its centre of mass
     /// ([`ShapeProxy::reach`]): the broad phase's bound of a body, whatever its angle.
     reach: f32,
+    /// The unit mass and inertia are usable ([`usable_mass`]): a shape is validated, but the
+    /// mass of a huge one can overflow.
+    mass_ok: bool,
 }
 
 impl Collider {
@@ -77,6 +80,7 @@ impl Collider {
             unit_mass,
             core_radius: 0.25 * proxy.inner_radius(unit_mass.center),
             reach: proxy.reach(unit_mass.center),
+            mass_ok: usable_mass(unit_mass.mass, unit_mass.inertia),
         }
     }
 
@@ -157,14 +161,13 @@ impl Collider {
     }
 
     /// What the listing of a step reads of a body's own collider: its centre of mass, reach,
-    /// and whether its unit mass and inertia are usable (a shape is validated, but the mass
-    /// of a huge one can overflow).
+    /// and whether its unit mass and inertia are usable.
     #[inline]
     pub(crate) fn body_shape(&self) -> BodyShape {
         BodyShape {
             local_center: self.unit_mass.center,
             reach: self.reach,
-            mass_ok: usable_mass(self.unit_mass.mass, self.unit_mass.inertia),
+            mass_ok: self.mass_ok,
         }
     }
 
