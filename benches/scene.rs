@@ -658,18 +658,24 @@ fn memory() {
                     }
                 }
             }
-            let diagnostics = ours.app.world().resource::<CcdDiagnostics>();
-            let comp = size_of::<StepPoses>() + size_of::<CcdOutcome>() + size_of::<CcdEnabled>();
-            println!(
-                "| {n} | {m} | {} | {} | {} | {} | {} |",
-                size_of::<StepPoses>(),
-                size_of::<CcdOutcome>(),
-                size_of::<CcdEnabled>(),
-                diagnostics.bytes_per_body,
-                comp + diagnostics.bytes_per_body
-            );
+            println!("{}", memory_row(&ours, n, m));
         }
     }
+}
+
+/// The memory table's row of `ours`, a scene of `n` bodies and `m` statics: the components'
+/// sizes, the plugin's buffers per body, and their sum.
+fn memory_row(ours: &Ours, n: usize, m: usize) -> String {
+    let diagnostics = ours.app.world().resource::<CcdDiagnostics>();
+    let comp = size_of::<StepPoses>() + size_of::<CcdOutcome>() + size_of::<CcdEnabled>();
+    format!(
+        "| {n} | {m} | {} | {} | {} | {} | {} |",
+        size_of::<StepPoses>(),
+        size_of::<CcdOutcome>(),
+        size_of::<CcdEnabled>(),
+        diagnostics.bytes_per_body,
+        comp + diagnostics.bytes_per_body
+    )
 }
 
 /// `steps` steps of `ours`, out of line so that an instruction count can take them alone
@@ -852,22 +858,7 @@ fn main() {
                 let (blocks, kept) = paired_speedup(&mut app, mode, SPEEDUP_BLOCK, SPEEDUP_DROP);
                 speedups.insert((n, m, mode_name(mode)), (speedup, rounds, blocks, kept));
             }
-            {
-                let w = app.app.world();
-                let diagnostics = w.resource::<CcdDiagnostics>();
-                let comp =
-                    size_of::<StepPoses>() + size_of::<CcdOutcome>() + size_of::<CcdEnabled>();
-                writeln!(
-                    memory,
-                    "| {n} | {m} | {} | {} | {} | {} | {} |",
-                    size_of::<StepPoses>(),
-                    size_of::<CcdOutcome>(),
-                    size_of::<CcdEnabled>(),
-                    diagnostics.bytes_per_body,
-                    comp + diagnostics.bytes_per_body
-                )
-                .unwrap();
-            }
+            writeln!(memory, "{}", memory_row(&app, n, m)).unwrap();
             kept.push((n, m, app));
         }
     }
