@@ -138,7 +138,7 @@ pub(crate) fn list_bodies<'a>(
             if sweep.resolved_valid {
                 sweep.bypass_change_detection().resolved_valid = false;
             }
-            if *toi != CcdOutcome::Idle {
+            if !matches!(*toi, CcdOutcome::Idle) {
                 *toi = CcdOutcome::Idle;
             }
             continue;
@@ -146,7 +146,8 @@ pub(crate) fn list_bodies<'a>(
         // Its world scale, recorded with its end pose.
         let mut entry = BodyEntry::new(entity, &sweep, shape, at_scale);
         entry.scale = sweep.scale;
-        if *toi == CcdOutcome::Clear {
+        // A variant test, not the derived `==`, which is a call per body.
+        if matches!(*toi, CcdOutcome::Clear) {
             entry.flags |= WAS_CLEAR;
         }
         if let Some(v) = velocity {
