@@ -143,8 +143,13 @@ pub(crate) fn list_bodies<'a>(
             }
             continue;
         };
+        // `slots` holds as many entries as the query has bodies, so there is room. The entry
+        // is filled in place, not built aside and copied.
+        let Some(entry) = rest.get_mut(in_lane) else {
+            break;
+        };
+        *entry = BodyEntry::new(entity, &sweep, shape, at_scale);
         // Its world scale, recorded with its end pose.
-        let mut entry = BodyEntry::new(entity, &sweep, shape, at_scale);
         entry.scale = sweep.scale;
         // A variant test, not the derived `==`, which is a call per body.
         if matches!(*toi, CcdOutcome::Clear) {
@@ -178,11 +183,6 @@ pub(crate) fn list_bodies<'a>(
             entry.friction = 0.0;
             listing.clamped |= Warned::FRICTION;
         }
-        // `slots` holds as many entries as the query has bodies, so there is room.
-        let Some(slot) = rest.get_mut(in_lane) else {
-            break;
-        };
-        *slot = entry;
         listed += 1;
         in_lane += 1;
         if in_lane == lane_len {

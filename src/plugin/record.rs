@@ -237,7 +237,7 @@ type ChildBodies<'w, 's, D> = Query<'w, 's, D, (Without<StaticCollider>, With<Ch
 /// The end pose of one recorded body, from `pose` (its world pose and uniform world scale,
 /// `None` when it has no pose), unwrapped against its start with its velocity over `dt`
 /// ([`record_end`]).
-#[inline]
+#[inline(always)]
 fn record_end_pose(
     pose: impl FnOnce() -> Option<((Vec2, f32), f32)>,
     sweep: &mut StepPoses,
