@@ -21,6 +21,7 @@
 //!                                   # SCENE_PROFILE_MOVERS=k: k of the statics moving)
 //! SCENE_MOVERS=1 ...  # only the movers' cost: 10k bodies x 100k statics + 1k movers, and
 //!                     # one of 100k statics moving, each against the level all static
+//! SCENE_MEMORY=1 ...  # only the memory kept per body at each N x M, both modes and threads
 //! ```
 //!
 //! The machine this runs on drifts by more than the targets' margins over minutes, so each
@@ -640,6 +641,43 @@ fn profile(mode: &str) {
     }
 }
 
+/// `SCENE_MEMORY=1`: only the memory kept per CCD body at every size the bench measures,
+/// after the steps it takes there in each mode on one thread and on two (fewer of them: the
+/// buffers reach their size in the first steps).
+fn memory() {
+    println!("| N | M | StepPoses | CcdOutcome | CcdEnabled | buffers/body | total |");
+    println!("|---|---|---|---|---|---|---|");
+    for m in [1_000, 100_000] {
+        for n in [1_000, 10_000, 50_000] {
+            let mut ours = Ours::new(&level(n, m), false);
+            for mode in [Resolution::Clamp, Resolution::SubStep { max_substeps: 4 }] {
+                for parallel in [false, true] {
+                    ours.configure(mode, parallel);
+                    for _ in 0..5 {
+                        ours.step();
+                    }
+                }
+            }
+            println!("{}", memory_row(&ours, n, m));
+        }
+    }
+}
+
+/// The memory table's row of `ours`, a scene of `n` bodies and `m` statics: the components'
+/// sizes, the plugin's buffers per body, and their sum.
+fn memory_row(ours: &Ours, n: usize, m: usize) -> String {
+    let diagnostics = ours.app.world().resource::<CcdDiagnostics>();
+    let comp = size_of::<StepPoses>() + size_of::<CcdOutcome>() + size_of::<CcdEnabled>();
+    format!(
+        "| {n} | {m} | {} | {} | {} | {} | {} |",
+        size_of::<StepPoses>(),
+        size_of::<CcdOutcome>(),
+        size_of::<CcdEnabled>(),
+        diagnostics.bytes_per_body,
+        comp + diagnostics.bytes_per_body
+    )
+}
+
 /// `steps` steps of `ours`, out of line so that an instruction count can take them alone
 /// (`--toggle-collect='*profiled_steps*'`), without the scene's first step, which builds the
 /// static hierarchy.
@@ -714,6 +752,10 @@ fn main() {
     let threads = init_pool();
     if let Ok(mode) = std::env::var("SCENE_PROFILE") {
         profile(&mode);
+        return;
+    }
+    if std::env::var_os("SCENE_MEMORY").is_some() {
+        memory();
         return;
     }
     let quick = std::env::var_os("SCENE_QUICK").is_some();
@@ -816,22 +858,7 @@ fn main() {
                 let (blocks, kept) = paired_speedup(&mut app, mode, SPEEDUP_BLOCK, SPEEDUP_DROP);
                 speedups.insert((n, m, mode_name(mode)), (speedup, rounds, blocks, kept));
             }
-            {
-                let w = app.app.world();
-                let diagnostics = w.resource::<CcdDiagnostics>();
-                let comp =
-                    size_of::<StepPoses>() + size_of::<CcdOutcome>() + size_of::<CcdEnabled>();
-                writeln!(
-                    memory,
-                    "| {n} | {m} | {} | {} | {} | {} | {} |",
-                    size_of::<StepPoses>(),
-                    size_of::<CcdOutcome>(),
-                    size_of::<CcdEnabled>(),
-                    diagnostics.bytes_per_body,
-                    comp + diagnostics.bytes_per_body
-                )
-                .unwrap();
-            }
+            writeln!(memory, "{}", memory_row(&app, n, m)).unwrap();
             kept.push((n, m, app));
         }
     }

@@ -7,6 +7,7 @@ use bevy_reflect::prelude::*;
 use glam::Vec2;
 
 use super::CcdOutcome;
+use super::gather::BodyShape;
 use super::workspace::CcdWorkspace;
 use crate::geometry::{
     self, Capsule, Circle, MassProperties, Polygon, Segment, Shape, ShapeError, ShapeProxy,
@@ -41,8 +42,8 @@ use bevy_transform::components::Transform;
 /// A collider is *immutable*: to reshape one, insert a new `Collider` on the entity. The plugin
 /// learns of every insertion and removal from the component's hooks, so it rebuilds its static
 /// hierarchy only when a static's shape really changed, without scanning every static each step
-/// (a cost that grows with the level), and keeps what the broad phase needs of a body's shape
-/// in its [`StepPoses`].
+/// (a cost that grows with the level). What a step needs of the shape besides (its unit mass,
+/// the reach about its centre of mass) is computed once, with the collider.
 #[derive(Component, Reflect, Clone, Copy, Debug, PartialEq)]
 #[component(immutable, on_insert = collider_inserted, on_remove = static_shape_changed)]
 #[reflect(opaque)]
@@ -55,9 +56,15 @@ pub struct Collider {
     /// for every body every step.
     unit_mass: MassProperties,
     /// Radius of the core circle about the centre of mass, used when a body starts a step deep
-    /// in a target (Box2D's fallback: a quarter of the shape's smallest extent). Cached for
-    /// the same reason.
+    /// in a target (Box2D's fallback: a quarter of the shape's smallest extent). Computed once
+    /// for the same reason.
     core_radius: f32,
+    /// The farthest any point of the shape is from its centre of mass
+    /// ([`ShapeProxy::reach`]): the broad phase's bound of a body, whatever its angle.
+    reach: f32,
+    /// The unit mass and inertia are usable ([`usable_mass`]): a shape is validated, but the
+    /// mass of a huge one can overflow.
+    mass_ok: bool,
 }
 
 impl Collider {
@@ -72,6 +79,8 @@ impl Collider {
             proxy,
             unit_mass,
             core_radius: 0.25 * proxy.inner_radius(unit_mass.center),
+            reach: proxy.reach(unit_mass.center),
+            mass_ok: usable_mass(unit_mass.mass, unit_mass.inertia),
         }
     }
 
@@ -120,6 +129,7 @@ impl Collider {
         self.proxy = ShapeProxy::new(&points, self.proxy.radius)?;
         self.unit_mass.center = self.shape.mass_properties(1.0).center + offset;
         self.core_radius = 0.25 * self.proxy.inner_radius(self.unit_mass.center);
+        self.reach = self.proxy.reach(self.unit_mass.center);
         Ok(self)
     }
 
@@ -142,6 +152,23 @@ impl Collider {
     /// in a target: a quarter of the shape's smallest extent about its centre of mass.
     pub fn core_radius(&self) -> f32 {
         self.core_radius
+    }
+
+    /// The farthest any point of the shape is from its centre of mass (m), whatever its
+    /// angle ([`ShapeProxy::reach`]).
+    pub fn reach(&self) -> f32 {
+        self.reach
+    }
+
+    /// What the listing of a step reads of a body's own collider: its centre of mass, reach,
+    /// and whether its unit mass and inertia are usable.
+    #[inline]
+    pub(crate) fn body_shape(&self) -> BodyShape {
+        BodyShape {
+            local_center: self.unit_mass.center,
+            reach: self.reach,
+            mass_ok: self.mass_ok,
+        }
     }
 
     /// Mass properties at `density` (kg/m²), centre in the entity frame.
@@ -259,7 +286,7 @@ pub struct MovingTarget;
 /// hierarchy must be rebuilt before the next sweep.
 fn static_added(mut world: DeferredWorld, _: HookContext) {
     if let Some(mut workspace) = world.get_resource_mut::<CcdWorkspace>() {
-        workspace.statics_changed();
+        workspace.statics.changed();
     }
 }
 
@@ -277,7 +304,7 @@ fn static_shape_changed(mut world: DeferredWorld, context: HookContext) {
     if world.entity(context.entity).contains::<StaticCollider>() {
         static_removed(world, context);
     } else if let Some(mut workspace) = world.get_resource_mut::<CcdWorkspace>() {
-        workspace.part_removed(context.entity);
+        workspace.statics.part_removed(context.entity);
     }
 }
 
@@ -304,27 +331,19 @@ pub(crate) fn is_static_part(world: &DeferredWorld, entity: Entity) -> bool {
     false
 }
 
-/// Hook of [`Collider`] (insertion or replacement): a static's hierarchy is stale, a body's
-/// [`StepPoses`] takes the new shape's summary.
-fn collider_inserted(mut world: DeferredWorld, context: HookContext) {
-    let entity = world.entity(context.entity);
-    let is_static = entity.contains::<StaticCollider>();
-    let shape = entity.get::<Collider>().map(ShapeSummary::of);
-    if let (Some(shape), Some(mut sweep)) = (shape, world.get_mut::<StepPoses>(context.entity)) {
-        shape.write(sweep.bypass_change_detection());
-    }
+/// Hook of [`Collider`] (insertion or replacement): a static's hierarchy is stale.
+fn collider_inserted(world: DeferredWorld, context: HookContext) {
+    let is_static = world.entity(context.entity).contains::<StaticCollider>();
     if is_static || is_static_part(&world, context.entity) {
         static_added(world, context);
     }
 }
 
-/// Hook of [`StepPoses`] (insertion, which [`CcdEnabled`] brings): it takes the summary of the
-/// body's [`Collider`], if any yet, and the body's pose now as the start of its first sweep, so
-/// that a body spawned during a fixed step (by a system before the movement, say) is swept
+/// Hook of [`StepPoses`] (insertion, which [`CcdEnabled`] brings): it takes the body's pose now
+/// as the start of its first sweep, so that a body spawned during a fixed step (by a system before the movement, say) is swept
 /// from where it was spawned in that very step.
 fn poses_inserted(mut world: DeferredWorld, context: HookContext) {
     let entity = world.entity(context.entity);
-    let shape = entity.get::<Collider>().map(ShapeSummary::of);
     // A child body's start is its world pose; a chain with none leaves it at NaN (the
     // record passes then name the reason).
     let pose = match (entity.get::<Transform>(), entity.get::<ChildOf>()) {
@@ -350,9 +369,6 @@ fn poses_inserted(mut world: DeferredWorld, context: HookContext) {
         return;
     };
     let sweep = sweep.bypass_change_detection();
-    if let Some(shape) = shape {
-        shape.write(sweep);
-    }
     if let Some((position, angle, scale)) = pose {
         sweep.scale = scale;
         sweep.start_position = position;
@@ -365,39 +381,6 @@ fn poses_inserted(mut world: DeferredWorld, context: HookContext) {
         sweep.recorded = enabled;
         sweep.recorded_in = step;
     }
-}
-
-/// What the broad phase needs of a body's [`Collider`], kept in its [`StepPoses`] by the hooks of
-/// both components (the collider is immutable, so every change goes through them): the
-/// gather then reads one component, sequentially, instead of looking the collider up by
-/// entity, a cache miss per body .
-struct ShapeSummary {
-    local_center: Vec2,
-    reach: f32,
-    mass_ok: bool,
-}
-
-impl ShapeSummary {
-    fn of(collider: &Collider) -> Self {
-        let mass = collider.unit_mass;
-        Self {
-            local_center: mass.center,
-            reach: collider.proxy.reach(mass.center),
-            mass_ok: usable_mass(mass.mass, mass.inertia),
-        }
-    }
-
-    fn write(self, sweep: &mut StepPoses) {
-        sweep.local_center = self.local_center;
-        sweep.reach = self.reach;
-        sweep.mass_ok = self.mass_ok;
-    }
-}
-
-/// Writes the summary of `collider` into `poses`: a body whose last part was removed is its own
-/// collider again ([`update_compounds`](super::compound::update_compounds)).
-pub(crate) fn summarize(collider: &Collider, poses: &mut StepPoses) {
-    ShapeSummary::of(collider).write(poses);
 }
 
 /// The 2D pose of a `Transform`: translation x, y and the angle of the rotated x axis.
@@ -496,8 +479,6 @@ pub struct StepPoses {
     pub(crate) resolved_position: Vec2,
     /// Angle after resolution (radians).
     pub(crate) resolved_angle: f32,
-    /// Centre of mass in the body frame (m), the [`Collider`]'s. Kept by the hooks.
-    pub(crate) local_center: Vec2,
     /// Whether the body is swept in the step it was recorded in.
     pub(crate) recorded: bool,
     /// The step the start pose was recorded in (the plugin counts the steps begun): a body is
@@ -513,14 +494,6 @@ pub struct StepPoses {
     /// when that has not changed since.
     #[reflect(ignore)]
     pub(crate) resolved_valid: bool,
-    /// The [`Collider`]'s reach about `local_center` (m), see [`ShapeProxy::reach`]: whatever
-    /// its angle, the body lies within it. Kept by the hooks, as is `local_center`.
-    #[reflect(ignore)]
-    pub(crate) reach: f32,
-    /// The [`Collider`]'s unit-density mass and inertia are finite and positive (a shape is
-    /// validated, but the mass of a huge one can overflow). Kept by the hooks.
-    #[reflect(ignore)]
-    pub(crate) mass_ok: bool,
     /// The body's uniform world scale where the user's code left it, recorded with the end
     /// pose: it scales the collider and the mass. 0 for a `Transform` that does not keep the
     /// plane, NaN for one that is not finite (see the crate's hierarchy rules).
@@ -551,16 +524,12 @@ impl StepPoses {
         self.recorded
     }
 
-    /// Centre of mass in the body frame (m), the [`Collider`]'s (unscaled).
-    pub fn local_center(&self) -> Vec2 {
-        self.local_center
-    }
-
-    /// The geometry-layer sweep from the start to the user's end pose (of the unscaled
-    /// collider's centre of mass).
-    pub fn motion(&self) -> geometry::Sweep {
+    /// The geometry-layer sweep from the start to the user's end pose of the point
+    /// `local_center` of the body frame (say, its [`Collider`]'s centre of mass,
+    /// `collider.mass_properties(1.0).center`).
+    pub fn motion(&self, local_center: Vec2) -> geometry::Sweep {
         geometry::Sweep::from_origins(
-            self.local_center(),
+            local_center,
             self.start_position,
             self.start_angle,
             self.end_position,

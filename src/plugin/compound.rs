@@ -14,6 +14,7 @@ use bevy_ecs::prelude::*;
 use bevy_transform::components::Transform;
 use glam::Vec2;
 
+use super::gather::BodyShape;
 use super::hierarchy::{Ancestry, Planar, body_scale, pose_in};
 use super::outcome::CcdError;
 use super::parts::BodyParts;
@@ -31,10 +32,23 @@ pub(crate) struct CompoundBody {
     count: u32,
     /// The combined mass properties at unit density, in the body frame.
     pub(crate) mass: MassProperties,
+    /// The farthest any point of a part is from the combined centre of mass (m).
+    reach: f32,
     /// The union of the parts' layers: the broad phase keeps a target any part may hit.
     pub(crate) layers: CollisionLayers,
     /// A part whose pose could not be read: the body is not swept.
     pub(crate) error: Option<CcdError>,
+}
+
+impl CompoundBody {
+    /// What the listing reads of the body's shape: the combined centre of mass and reach.
+    pub(crate) fn shape(&self) -> BodyShape {
+        BodyShape {
+            local_center: self.mass.center,
+            reach: self.reach,
+            mass_ok: usable_mass(self.mass.mass, self.mass.inertia),
+        }
+    }
 }
 
 /// Every compound body of the step, by entity, and their parts (flat lists, one index per
@@ -47,8 +61,6 @@ pub(crate) struct Compounds {
     layers: Vec<CollisionLayers>,
     /// The parts found this step, before they are grouped by body (kept to reuse its memory).
     found: Vec<Found>,
-    /// The last step's compound bodies, while this step's are listed (kept likewise).
-    before: Vec<Entity>,
 }
 
 /// `pose`, a part's pose in the frame of a body of uniform world scale `s`, in the rigid body
@@ -212,16 +224,14 @@ type BodyQuery<'w, 's> = Query<
     (
         Option<&'static BodyParts>,
         Option<&'static Collider>,
-        &'static mut StepPoses,
         &'static Transform,
     ),
-    Without<StaticCollider>,
+    (With<StepPoses>, Without<StaticCollider>),
 >;
 
 /// Part of [`CcdStepSystems::RecordEnd`](super::CcdStepSystems::RecordEnd): lists every
 /// compound body (one with [`BodyParts`]) and its parts (its own [`Collider`], if any, first;
-/// then its child colliders in entity order), and keeps its [`StepPoses`]' centre of mass and
-/// reach the combined ones. A child collider's [`CollisionLayers`] are its own, else the
+/// then its child colliders in entity order), with the combined mass properties and reach. A child collider's [`CollisionLayers`] are its own, else the
 /// body's. Every part, the body's own collider too, is placed at the body's uniform world scale
 /// ([`at_scale`]).
 ///
@@ -236,7 +246,7 @@ pub(crate) fn update_compounds(
     ancestry: Ancestry,
     layers: Query<&CollisionLayers>,
     workspace: Res<CcdWorkspace>,
-    mut bodies: BodyQuery,
+    bodies: BodyQuery,
 ) {
     let compounds = compounds.as_mut();
     if owners.is_empty() && compounds.bodies.is_empty() {
@@ -248,18 +258,15 @@ pub(crate) fn update_compounds(
         entities,
         layers: part_layers,
         found,
-        before,
     } = compounds;
-    before.clear();
-    before.extend(list.iter().map(|b| b.body));
     list.clear();
     shapes.clear();
     entities.clear();
     part_layers.clear();
     found.clear();
-    let frames = &workspace.child_frames;
+    let frames = &workspace.bodies.child_frames;
     for body in &owners {
-        let Ok((Some(parts), _, _, transform)) = bodies.get(body) else {
+        let Ok((Some(parts), _, transform)) = bodies.get(body) else {
             continue;
         };
         let s = world_scale(body, transform, frames);
@@ -278,7 +285,7 @@ pub(crate) fn update_compounds(
         let count = rest.iter().take_while(|f| f.0 == body).count();
         let (group, later) = rest.split_at(count);
         rest = later;
-        let Ok((_, own, mut poses, transform)) = bodies.get_mut(body) else {
+        let Ok((_, own, transform)) = bodies.get(body) else {
             continue;
         };
         let s = world_scale(body, transform, frames);
@@ -314,26 +321,15 @@ pub(crate) fn update_compounds(
             .iter()
             .map(|p| p.proxy.reach(mass.center))
             .fold(0.0, f32::max);
-        let poses = poses.bypass_change_detection();
-        poses.local_center = mass.center;
-        poses.reach = reach;
-        poses.mass_ok = usable_mass(mass.mass, mass.inertia);
         list.push(CompoundBody {
             body,
             start: start as u32,
             count: (shapes.len() - start) as u32,
             mass,
+            reach,
             layers: union,
             error: error.or((shapes.len() == start).then_some(CcdError::InvalidBodyData)),
         });
-    }
-    // A body that lost its last part is its own collider again.
-    for &gone in &compounds.before {
-        if compounds.find(gone).is_none()
-            && let Ok((_, Some(collider), mut poses, _)) = bodies.get_mut(gone)
-        {
-            super::components::summarize(collider, poses.bypass_change_detection());
-        }
     }
 }
 

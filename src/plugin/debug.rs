@@ -47,7 +47,10 @@ impl Plugin for CcdDebugPlugin {
         // Each body's path over the step is kept (otherwise it is recorded only when the
         // world has sensors); `CcdPlugin` keeps the workspace if it is added after this.
         app.init_resource::<CcdWorkspace>();
-        app.world_mut().resource_mut::<CcdWorkspace>().keep_paths = true;
+        app.world_mut()
+            .resource_mut::<CcdWorkspace>()
+            .bodies
+            .keep_paths = true;
     }
 }
 
@@ -190,9 +193,7 @@ fn record_step(
     // Crossings come by body in the order the bodies are listed, as they are walked here.
     let mut next_crossing = 0;
     let ws: &CcdWorkspace = &workspace;
-    let lane_len = ws.lane_len.max(1);
-    for (lane, first) in ws.lanes.iter().zip((0..ws.bodies.len()).step_by(lane_len)) {
-        let chunk = &ws.bodies[first..ws.bodies.len().min(first + lane_len)];
+    for (lane, chunk) in ws.bodies.by_lane() {
         let path = &lane.sensing.path;
         frame.runs.clear();
         frame.runs.extend_from_slice(&lane.sensing.paths);
@@ -343,7 +344,7 @@ fn draw_ccd(
 ) {
     let colours = gizmos.config_ext.clone();
     let sets = [
-        (colours.statics, &workspace.statics),
+        (colours.statics, &workspace.statics.set),
         (colours.sensors, &workspace.sensors.set),
     ];
     for (colour, set) in sets {

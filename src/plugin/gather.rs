@@ -24,14 +24,26 @@ use crate::geometry::{self, Aabb, QUERY_GROUP, StaticSet};
 /// it saves.
 pub(crate) const GROUP_MIN_BODIES: usize = 4096;
 
+/// What the listing reads of a body's shape: its own [`Collider`]'s, or a compound body's
+/// combined ones ([`CompoundBody`](super::compound::CompoundBody)).
+#[derive(Clone, Copy, Default)]
+pub(crate) struct BodyShape {
+    /// Centre of mass in the body frame (m).
+    pub(crate) local_center: Vec2,
+    /// The farthest any point is from the centre of mass (m).
+    pub(crate) reach: f32,
+    /// The mass and inertia at unit density are usable ([`usable_mass`]).
+    pub(crate) mass_ok: bool,
+}
+
 impl BodyEntry {
-    /// An entry with the recorded poses of `poses`, nothing else filled in yet; the collider's
+    /// An entry with the recorded poses of `poses`, nothing else filled in yet; the shape's
     /// centre of mass and reach scaled by the body's world `scale` (see [`BodyEntry::scale`]).
-    pub(crate) fn new(entity: Entity, poses: &StepPoses, scale: f32) -> Self {
+    pub(crate) fn new(entity: Entity, poses: &StepPoses, shape: BodyShape, scale: f32) -> Self {
         Self {
             entity,
             sweep: geometry::Sweep {
-                local_center: poses.local_center * scale,
+                local_center: shape.local_center * scale,
                 c0: poses.start_position,
                 c1: poses.end_position,
                 a0: poses.start_angle,
@@ -50,9 +62,9 @@ impl BodyEntry {
             substeps: 0,
             position: Vec2::ZERO,
             angle: 0.0,
-            flags: if poses.mass_ok { COLLIDER_MASS_OK } else { 0 },
+            flags: if shape.mass_ok { COLLIDER_MASS_OK } else { 0 },
             error: None,
-            reach: poses.reach * scale,
+            reach: shape.reach * scale,
             scale,
         }
     }
@@ -66,7 +78,7 @@ pub(crate) type ListQuery<'w, 's> = Query<
         Entity,
         &'static mut StepPoses,
         &'static mut CcdOutcome,
-        Has<Collider>,
+        Option<&'static Collider>,
         Option<&'static Velocity>,
         Option<&'static Restitution>,
         Option<&'static Friction>,
@@ -101,7 +113,7 @@ pub(crate) fn list_bodies<'a>(
 ) -> usize {
     let mut rest = slots;
     let (mut listed, mut in_lane) = (0, 0);
-    for (entity, mut sweep, mut toi, has_collider, velocity, restitution, friction, mass, layers) in
+    for (entity, mut sweep, mut toi, collider, velocity, restitution, friction, mass, layers) in
         bodies
     {
         let swept = sweep.recorded && sweep.recorded_in == listing.step;
@@ -111,7 +123,13 @@ pub(crate) fn list_bodies<'a>(
         } else {
             None
         };
-        if !swept || !(has_collider || compound.is_some()) {
+        // A compound body's parts, centre of mass and reach are placed at its scale already.
+        let shape = match (compound, collider) {
+            (Some(compound), _) => Some((compound.shape(), 1.0)),
+            (None, Some(collider)) => Some((collider.body_shape(), sweep.scale)),
+            (None, None) => None,
+        };
+        let Some((shape, at_scale)) = shape.filter(|_| swept) else {
             if swept && !sweep.warned_no_collider {
                 sweep.bypass_change_detection().warned_no_collider = true;
                 log::warn!("bevy_ccd: body {entity} has CcdEnabled but no Collider: not swept");
@@ -120,18 +138,21 @@ pub(crate) fn list_bodies<'a>(
             if sweep.resolved_valid {
                 sweep.bypass_change_detection().resolved_valid = false;
             }
-            if *toi != CcdOutcome::Idle {
+            if !matches!(*toi, CcdOutcome::Idle) {
                 *toi = CcdOutcome::Idle;
             }
             continue;
-        }
-        // Its world scale, recorded with its end pose. A compound body's parts, centre of mass
-        // and reach are placed at its scale already.
-        let scale = sweep.scale;
-        let mut entry =
-            BodyEntry::new(entity, &sweep, if compound.is_some() { 1.0 } else { scale });
-        entry.scale = scale;
-        if *toi == CcdOutcome::Clear {
+        };
+        // `slots` holds as many entries as the query has bodies, so there is room. The entry
+        // is filled in place, not built aside and copied.
+        let Some(entry) = rest.get_mut(in_lane) else {
+            break;
+        };
+        *entry = BodyEntry::new(entity, &sweep, shape, at_scale);
+        // Its world scale, recorded with its end pose.
+        entry.scale = sweep.scale;
+        // A variant test, not the derived `==`, which is a call per body.
+        if matches!(*toi, CcdOutcome::Clear) {
             entry.flags |= WAS_CLEAR;
         }
         if let Some(v) = velocity {
@@ -162,11 +183,6 @@ pub(crate) fn list_bodies<'a>(
             entry.friction = 0.0;
             listing.clamped |= Warned::FRICTION;
         }
-        // `slots` holds as many entries as the query has bodies, so there is room.
-        let Some(slot) = rest.get_mut(in_lane) else {
-            break;
-        };
-        *slot = entry;
         listed += 1;
         in_lane += 1;
         if in_lane == lane_len {

@@ -17,18 +17,17 @@ pub(crate) fn send_impacts(
     mut impacts: MessageWriter<CcdImpact>,
 ) {
     let ws: &CcdWorkspace = &workspace;
-    let lane_len = ws.lane_len.max(1);
     let lookups = WriteLookups {
-        entities: &ws.static_entities,
-        colliders: &ws.static_colliders,
-        child_frames: &ws.child_frames,
+        entities: &ws.statics.entities,
+        colliders: &ws.statics.colliders,
+        child_frames: &ws.bodies.child_frames,
     };
     let mut sent = 0;
     // Lane by lane, in gathering order; each lane's `hit` list names its bodies with impacts,
     // so the others are not visited again.
-    for (lane, first) in ws.lanes.iter().zip((0..ws.bodies.len()).step_by(lane_len)) {
+    for (lane, bodies) in ws.bodies.by_lane() {
         for &index in &lane.hit {
-            let body = &ws.bodies[first + index as usize];
+            let body = &bodies[index as usize];
             let start = body.impacts as usize;
             let list = &lane.impacts[start..start + body.impact_count as usize];
             sent += list.len();

@@ -92,6 +92,6 @@ fn layers_changed(mut world: DeferredWorld, context: HookContext) {
         || super::components::is_static_part(&world, context.entity))
         && let Some(mut workspace) = world.get_resource_mut::<CcdWorkspace>()
     {
-        workspace.statics_changed();
+        workspace.statics.changed();
     }
 }

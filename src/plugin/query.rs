@@ -122,7 +122,7 @@ impl StaticQuery<'_> {
     ) -> Result<Option<CastHit>, CastError> {
         let sweep = shape_sweep(collider, from, to);
         let hit = cast_first(
-            &self.workspace.statics,
+            &self.workspace.statics.set,
             collider.proxy(),
             sweep,
             self.config.linear_slop,
@@ -158,7 +158,7 @@ impl StaticQuery<'_> {
         filter: &CastFilter,
     ) -> Result<Option<CastHit>, CastError> {
         let ray = Ray::new(origin, direction, max_distance, self.config.linear_slop)?;
-        let hit = ray_first(&self.workspace.statics, &ray, |index| {
+        let hit = ray_first(&self.workspace.statics.set, &ray, |index| {
             self.accepts(index, filter)
         });
         Ok(hit.map(|hit| self.hit(hit)))
@@ -177,7 +177,7 @@ impl StaticQuery<'_> {
         let ray = Ray::new(origin, direction, max_distance, self.config.linear_slop)?;
         let mut found = Vec::new();
         ray_all(
-            &self.workspace.statics,
+            &self.workspace.statics.set,
             &ray,
             |index| self.accepts(index, filter),
             &mut found,
@@ -236,7 +236,7 @@ impl StaticQuery<'_> {
         filter: &CastFilter,
     ) -> Result<MoveAndSlideOutput, CastError> {
         let slid = slide(
-            &self.workspace.statics,
+            &self.workspace.statics.set,
             collider.proxy(),
             position,
             angle,
@@ -259,7 +259,7 @@ impl StaticQuery<'_> {
     ) -> Result<(), CastError> {
         let mut found = Vec::new();
         cast_all(
-            &self.workspace.statics,
+            &self.workspace.statics.set,
             proxy,
             sweep,
             self.config.linear_slop,
@@ -274,22 +274,23 @@ impl StaticQuery<'_> {
     fn accepts(&self, index: u32, filter: &CastFilter) -> bool {
         let ws = &self.workspace;
         let layers = ws
-            .static_layers
+            .statics
+            .layers
             .get(index as usize)
             .copied()
             .unwrap_or_default();
         let index = index as usize;
         filter.layers.interacts(layers)
             && filter.excluded.is_none_or(|e| {
-                ws.static_entities.get(index) != Some(&e)
-                    && ws.static_colliders.get(index) != Some(&e)
+                ws.statics.entities.get(index) != Some(&e)
+                    && ws.statics.colliders.get(index) != Some(&e)
             })
     }
 
     fn hit(&self, hit: TargetHit) -> CastHit {
         CastHit {
-            entity: self.workspace.static_entities[hit.target as usize],
-            collider: self.workspace.static_colliders[hit.target as usize],
+            entity: self.workspace.statics.entities[hit.target as usize],
+            collider: self.workspace.statics.colliders[hit.target as usize],
             fraction: hit.fraction,
             point: hit.point,
             normal: hit.normal,

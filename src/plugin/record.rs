@@ -60,7 +60,7 @@ pub(crate) fn record_start(
             sweep.bypass_change_detection().resolved_valid = false;
         }
     }
-    workspace.child_frames.clear();
+    workspace.bodies.child_frames.clear();
     for (entity, transform, mut sweep, enabled, parent) in &mut children {
         let sweep = sweep.bypass_change_detection();
         sweep.recorded = enabled.0;
@@ -84,7 +84,7 @@ pub(crate) fn record_start(
             }
             Err(error) => {
                 sweep.start_position = Vec2::NAN;
-                workspace.child_frames.push((entity, Err(error)));
+                workspace.bodies.child_frames.push((entity, Err(error)));
             }
         }
     }
@@ -208,11 +208,7 @@ pub(crate) fn record_end(
     ancestry: Ancestry,
 ) {
     let dt = step_length(&config, time.as_deref());
-    let record = |transform: &Transform, sweep: &mut StepPoses, velocity: Option<&Velocity>| {
-        let pose = || pose_of(transform).map(|pose| (pose, body_scale(transform)));
-        record_end_pose(pose, sweep, velocity, dt);
-    };
-    let frames = &mut workspace.child_frames;
+    let frames = &mut workspace.bodies.child_frames;
     for (entity, transform, mut sweep, velocity, parent) in &mut children {
         let sweep = sweep.bypass_change_detection();
         if !sweep.recorded {
@@ -229,7 +225,7 @@ pub(crate) fn record_end(
     // the sort is stable) wins over the end pass's pose.
     frames.sort_by_key(|(entity, _)| *entity);
     frames.dedup_by_key(|(entity, _)| *entity);
-    record_root_ends(&config, &mut bodies, record);
+    record_root_ends(&config, &mut bodies, dt);
 }
 
 /// The body query of a record pass's root bodies, read table by table.
@@ -241,7 +237,7 @@ type ChildBodies<'w, 's, D> = Query<'w, 's, D, (Without<StaticCollider>, With<Ch
 /// The end pose of one recorded body, from `pose` (its world pose and uniform world scale,
 /// `None` when it has no pose), unwrapped against its start with its velocity over `dt`
 /// ([`record_end`]).
-#[inline]
+#[inline(always)]
 fn record_end_pose(
     pose: impl FnOnce() -> Option<((Vec2, f32), f32)>,
     sweep: &mut StepPoses,
@@ -297,13 +293,27 @@ pub(crate) fn turn(start: f32, end: f32, angular: Option<f32>, dt: f32) -> f32 {
     delta
 }
 
-/// The contiguous pass of [`record_end`] over the root bodies, split over the pool when they
-/// are many.
+/// The end pose of one recorded root body over a step of `dt` ([`record_end`]): inlined into
+/// the loops over the bodies rather than called for each.
+#[inline(always)]
+fn record_root_end(
+    transform: &Transform,
+    sweep: &mut StepPoses,
+    velocity: Option<&Velocity>,
+    dt: f32,
+) {
+    let pose = || pose_of(transform).map(|pose| (pose, body_scale(transform)));
+    record_end_pose(pose, sweep, velocity, dt);
+}
+
+/// The contiguous pass of [`record_end`] over the root bodies ([`record_root_end`]), split
+/// over the pool when they are many.
 fn record_root_ends(
     config: &CcdConfig,
     bodies: &mut RootBodies<(&Transform, &mut StepPoses, Option<&Velocity>)>,
-    record: impl Fn(&Transform, &mut StepPoses, Option<&Velocity>) + Sync,
+    dt: f32,
 ) {
+    let record = record_root_end;
     match bodies.contiguous_iter_mut() {
         Ok(tables) => {
             let mut tables: SmallVec<[_; RECORD_TABLES]> = tables.collect();
@@ -337,12 +347,12 @@ fn record_root_ends(
                             .zip(transforms.iter())
                             .zip(velocities.iter())
                         {
-                            record(transform, sweep, Some(velocity));
+                            record(transform, sweep, Some(velocity), dt);
                         }
                     }
                     None => {
                         for (sweep, transform) in sweeps.iter_mut().zip(transforms.iter()) {
-                            record(transform, sweep, None);
+                            record(transform, sweep, None, dt);
                         }
                     }
                 },
@@ -355,7 +365,7 @@ fn record_root_ends(
                 Mut<StepPoses>,
                 Option<&Velocity>,
             )| {
-                record(transform, sweep.bypass_change_detection(), velocity);
+                record(transform, sweep.bypass_change_detection(), velocity, dt);
             };
             bodies.iter_mut().for_each(record);
         }

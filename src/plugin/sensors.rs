@@ -62,7 +62,7 @@ pub struct Sensor;
 /// nothing from now on, also in a step under way.
 fn sensor_changed(mut world: DeferredWorld, context: HookContext) {
     if let Some(mut workspace) = world.get_resource_mut::<CcdWorkspace>() {
-        workspace.statics_changed();
+        workspace.statics.changed();
         workspace.sensors.removed(context.entity);
     }
 }
@@ -223,7 +223,7 @@ pub(crate) fn update_sensors(
             angular: watch.velocities.get(entity).ok().map(|v| v.angular),
         };
         let proxy = &sensors.set.items()[index as usize].proxy;
-        let starts = &workspace.mover_starts;
+        let starts = &workspace.statics.mover_starts;
         match mover_sweep(at, proxy, starts, &watch.ancestry, dt, limit) {
             Ok(sweep) => motions.push((index, sweep)),
             Err(error) => {
@@ -254,7 +254,7 @@ fn rebuild_sensors(workspace: &mut CcdWorkspace, watch: &SensorWatch, limit: f32
         ticks,
         ..
     } = watch;
-    let rebuilds = workspace.rebuilds;
+    let rebuilds = workspace.statics.rebuilds;
     let sensors = &mut workspace.sensors;
     // A sensor below a level root moves with it (as a teleport, like a static).
     let carried = sensors
@@ -471,10 +471,9 @@ pub(crate) fn send_crossings(
     if !sensors.any() {
         return;
     }
-    let lane_len = ws.lane_len.max(1);
-    for (lane, first) in ws.lanes.iter().zip((0..ws.bodies.len()).step_by(lane_len)) {
+    for (lane, bodies) in ws.bodies.by_lane() {
         for &(index, start, count) in &lane.sensing.crossed {
-            let body = ws.bodies[first + index as usize].entity;
+            let body = bodies[index as usize].entity;
             let list = &lane.sensing.crossings[start as usize..(start + count) as usize];
             // A sensor removed after the solve reports nothing either.
             for c in list

@@ -11,14 +11,14 @@ use glam::Vec2;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use super::compound::Compounds;
-use super::gather::{GROUP_MIN_BODIES, Gather, ListQuery, Listing, list_bodies};
+use super::gather::{BodyShape, GROUP_MIN_BODIES, Gather, ListQuery, Listing, list_bodies};
 use super::hooks::{CcdHooks, ask};
 use super::outcome::CcdError;
 use super::parallel::{MAX_ITEMS, hand_out, pool, workers};
 use super::record::step_length;
 use super::sensors::{SensorLane, SensorWorld, sense_lane};
 use super::workspace::{
-    BEYOND_LIMIT, BodyEntry, BodyLayers, COMPOUND, CcdWorkspace, HAS_LAYERS, HAS_MASS,
+    BEYOND_LIMIT, BodyEntry, BodyLanes, BodyLayers, COMPOUND, CcdWorkspace, HAS_LAYERS, HAS_MASS,
     HAS_VELOCITY, Lane, LayersOf, NUDGED, OVERLAPPING, WAS_CLEAR, Warned,
 };
 use super::write::{WriteLookups, WriteQuery, write_lane};
@@ -81,10 +81,13 @@ pub(crate) fn solve<H: CcdHooks + 'static>(
     let most = queries.p0().iter().len();
     let lanes = (workers(pool) * LANES_PER_WORKER).min(MAX_ITEMS);
     let lane_len = most.div_ceil(lanes).max(MIN_LANE_LEN);
-    workspace.lane_len = lane_len;
+    workspace.bodies.lane_len = lane_len;
     let lane_count = most.div_ceil(lane_len);
-    if workspace.lanes.len() < lane_count {
-        workspace.lanes.resize_with(lane_count, Lane::default);
+    if workspace.bodies.lanes.len() < lane_count {
+        workspace
+            .bodies
+            .lanes
+            .resize_with(lane_count, Lane::default);
     }
     let mode = config.resolution;
     let settings = SolveSettings {
@@ -95,22 +98,24 @@ pub(crate) fn solve<H: CcdHooks + 'static>(
     let step_error = step_error(&config, dt, workspace);
     let compounds: &Compounds = &compounds;
     let step = workspace.step;
-    let keep_paths = workspace.keep_paths;
     let CcdWorkspace {
-        statics,
-        static_entities,
-        static_colliders,
-        child_frames,
-        static_layers,
-        bodies: entries,
-        lanes,
+        statics: targets,
         sensors,
+        bodies:
+            BodyLanes {
+                entries,
+                lanes,
+                child_frames,
+                keep_paths,
+                ..
+            },
         ..
     } = workspace;
-    let statics: &StaticSet = statics;
+    let (statics, static_layers): (&StaticSet, &[CollisionLayers]) =
+        (&targets.set, &targets.layers);
     let targets = WriteLookups {
-        entities: static_entities,
-        colliders: static_colliders,
+        entities: &targets.entities,
+        colliders: &targets.colliders,
         child_frames,
     };
     let mut listing = Listing {
@@ -120,7 +125,7 @@ pub(crate) fn solve<H: CcdHooks + 'static>(
     };
     // Checked once a step: without sensors (or the debug view) no path is recorded.
     let sensors = sensors.any().then_some(&*sensors);
-    let paths = sensors.is_some() || keep_paths;
+    let paths = sensors.is_some() || *keep_paths;
     // Filled by index, not pushed, so that the lanes already listed can be handed out while
     // the rest is listed; in the steady state the length is already right and this writes
     // nothing. Exactly as many as can be gathered, so that the buffer does not double past
@@ -130,7 +135,12 @@ pub(crate) fn solve<H: CcdHooks + 'static>(
         entries.reserve_exact(most - entries.len());
         entries.resize(
             most,
-            BodyEntry::new(Entity::PLACEHOLDER, &StepPoses::default(), 1.0),
+            BodyEntry::new(
+                Entity::PLACEHOLDER,
+                &StepPoses::default(),
+                BodyShape::default(),
+                1.0,
+            ),
         );
     }
     let body_layers = BodyLayers {
@@ -202,7 +212,10 @@ pub(crate) fn solve<H: CcdHooks + 'static>(
             "a negative Friction was taken as 0".into()
         });
     }
-    let (bodies, bytes) = (workspace.bodies.len(), workspace.bytes_per_body());
+    let (bodies, bytes) = (
+        workspace.bodies.entries.len(),
+        workspace.bodies.bytes_per_body(),
+    );
     if diagnostics.bodies != bodies || diagnostics.bytes_per_body != bytes {
         diagnostics.bodies = bodies;
         diagnostics.bytes_per_body = bytes;

@@ -26,8 +26,84 @@ use super::{
     CcdConfig, CcdDiagnostics, CcdEnabled, Collider, CollisionLayers, MovingTarget, Sensor,
     StaticCollider, Velocity,
 };
-use crate::geometry::{self, Aabb, Pose, StaticItem, Sweep};
+use crate::geometry::{self, Aabb, Pose, StaticItem, StaticSet, Sweep};
 use glam::Vec2;
+
+/// The static world: the solid targets' hierarchy, what each item is, and the moving
+/// targets' motions. Kept between steps; changed by [`update_statics`] and by the hooks of the
+/// components it is built from.
+#[derive(Default)]
+pub(crate) struct StaticWorld {
+    /// The hierarchy of every solid target's colliders (the movers' apart).
+    pub(crate) set: StaticSet,
+    /// The target entity of each item, the [`StaticCollider`] (items are in the order of their
+    /// target entity, then of their collider entity).
+    pub(crate) entities: Vec<Entity>,
+    /// The collider entity of each item: the target's own, or one of its parts.
+    pub(crate) colliders: Vec<Entity>,
+    /// The parts (colliders below a target) in the hierarchy and their item index, sorted by
+    /// entity.
+    pub(crate) parts: Vec<(Entity, u32)>,
+    /// The ancestors of the items at the last rebuild, sorted and deduplicated: when one
+    /// moves, the hierarchy is rebuilt.
+    pub(crate) ancestors: Vec<Entity>,
+    /// The layers of each item, in item order; empty when every target has the default
+    /// layers.
+    pub(crate) layers: Vec<CollisionLayers>,
+    /// The moving targets' items: target entity, collider entity and item index, in item
+    /// order ([`MovingTarget`]).
+    pub(crate) movers: Vec<(Entity, Entity, u32)>,
+    /// The moving targets' world poses (position, angle) at the start of the step, by target
+    /// entity ([`record_movers`]); the sensors' movers read them too.
+    pub(crate) mover_starts: Vec<(Entity, Vec2, f32)>,
+    /// This step's motions of the movers, handed to the set (kept for its capacity).
+    pub(crate) motions: Vec<(u32, Sweep)>,
+    /// The hierarchy holds every static as it is now.
+    pub(crate) ready: bool,
+    /// The coordinate limit the hierarchy was built with: a new slop rebuilds it.
+    pub(crate) limit: f32,
+    /// Times the hierarchy was built.
+    pub(crate) rebuilds: u64,
+}
+
+impl StaticWorld {
+    /// Marks the hierarchy stale: it is rebuilt before the next sweep. Called by the hooks of
+    /// [`StaticCollider`], [`Collider`] and [`CollisionLayers`].
+    pub(crate) fn changed(&mut self) {
+        self.ready = false;
+    }
+
+    /// The target `entity` lost its [`StaticCollider`] or [`Collider`] (or was despawned):
+    /// the hierarchy is stale, and none of its items (parts included) is hit from now on,
+    /// also by a step under way whose hierarchy holds it.
+    pub(crate) fn removed(&mut self, entity: Entity) {
+        self.ready = false;
+        // Items are in target order.
+        let first = self.entities.partition_point(|e| *e < entity);
+        let count = self.entities[first..]
+            .iter()
+            .take_while(|e| **e == entity)
+            .count();
+        for index in first..first + count {
+            self.set.disable(index);
+        }
+    }
+
+    /// A part's [`Collider`] was removed: if it is in the hierarchy, the hierarchy is stale
+    /// and the part is not hit from now on.
+    pub(crate) fn part_removed(&mut self, entity: Entity) {
+        if let Some(index) = self.part(entity) {
+            self.ready = false;
+            self.set.disable(index as usize);
+        }
+    }
+
+    /// The item index of `entity` if it is a part of a target in the hierarchy.
+    pub(crate) fn part(&self, entity: Entity) -> Option<u32> {
+        let at = self.parts.binary_search_by_key(&entity, |(e, _)| *e).ok()?;
+        Some(self.parts[at].1)
+    }
+}
 
 /// What the rebuild reads of a target.
 type StaticData = (
@@ -123,11 +199,11 @@ pub(crate) fn update_statics(
     mut watch: StaticWatch,
 ) {
     let limit = geometry::max_world_coordinate(config.linear_slop);
-    let workspace = workspace.as_mut();
-    rebuild_if_stale(workspace, &mut watch, limit);
+    let targets = &mut workspace.statics;
+    rebuild_if_stale(targets, &mut watch, limit);
     let dt = step_length(&config, time.as_deref());
-    move_movers(workspace, &watch, dt, limit);
-    let (statics, rebuilds) = (workspace.statics.items().len(), workspace.rebuilds);
+    move_movers(targets, &watch, dt, limit);
+    let (statics, rebuilds) = (targets.set.items().len(), targets.rebuilds);
     if diagnostics.statics != statics || diagnostics.static_rebuilds != rebuilds {
         diagnostics.statics = statics;
         diagnostics.static_rebuilds = rebuilds;
@@ -136,7 +212,7 @@ pub(crate) fn update_statics(
 
 /// Whether something the hierarchy was built from has changed since the last run: a target,
 /// a part or an ancestor of one moved, was reparented or lost its `Transform` or parent.
-fn stale(workspace: &CcdWorkspace, watch: &mut StaticWatch) -> bool {
+fn stale(targets: &StaticWorld, watch: &mut StaticWatch) -> bool {
     let StaticWatch {
         kinds,
         ticked,
@@ -151,8 +227,8 @@ fn stale(workspace: &CcdWorkspace, watch: &mut StaticWatch) -> bool {
     } = watch;
     let known = |entity: Entity| {
         kinds.get(entity).is_ok_and(|(is_static, _, _)| is_static)
-            || workspace.static_part(entity).is_some()
-            || workspace.static_ancestors.binary_search(&entity).is_ok()
+            || targets.part(entity).is_some()
+            || targets.ancestors.binary_search(&entity).is_ok()
     };
     // Every removal is read, so that none is seen again next step.
     let lost = lost_transform
@@ -162,14 +238,14 @@ fn stale(workspace: &CcdWorkspace, watch: &mut StaticWatch) -> bool {
     lost || !moved.is_empty()
         || !reparented.is_empty()
         || moved_parts.iter().any(|e| {
-            let listed = workspace.static_part(e);
-            let target = listed.map(|i| workspace.static_entities[i as usize]);
+            let listed = targets.part(e);
+            let target = listed.map(|i| targets.entities[i as usize]);
             target
                 .or_else(|| owner(e, kinds))
                 .is_some_and(|t| !movers.contains(t))
         })
-        || workspace
-            .static_ancestors
+        || targets
+            .ancestors
             .iter()
             .any(|&a| moved_since(a, ticked, ticks.last_run(), ticks.this_run()))
 }
@@ -178,11 +254,11 @@ fn stale(workspace: &CcdWorkspace, watch: &mut StaticWatch) -> bool {
 /// whether it moves.
 type Listed = (Entity, Entity, StaticItem, CollisionLayers, bool);
 
-/// Rebuilds the hierarchy of `workspace` unless it holds every static as it is now, each
+/// Rebuilds the hierarchy of `targets` unless it holds every static as it is now, each
 /// within `limit` of the origin.
-fn rebuild_if_stale(workspace: &mut CcdWorkspace, watch: &mut StaticWatch, limit: f32) {
-    let changed = stale(workspace, watch);
-    if workspace.statics_ready && workspace.statics_limit == limit && !changed {
+fn rebuild_if_stale(targets: &mut StaticWorld, watch: &mut StaticWatch, limit: f32) {
+    let changed = stale(targets, watch);
+    if targets.ready && targets.limit == limit && !changed {
         return;
     }
     let StaticWatch {
@@ -219,7 +295,7 @@ fn rebuild_if_stale(workspace: &mut CcdWorkspace, watch: &mut StaticWatch, limit
         );
     };
     let mut list: Vec<Listed> = Vec::new();
-    let mut ancestors = core::mem::take(&mut workspace.static_ancestors);
+    let mut ancestors = core::mem::take(&mut targets.ancestors);
     ancestors.clear();
     for (entity, collider, transform, layers, has_parent, moving) in statics.iter() {
         let Some(collider) = collider else {
@@ -261,48 +337,46 @@ fn rebuild_if_stale(workspace: &mut CcdWorkspace, watch: &mut StaticWatch, limit
     }
     ancestors.sort_unstable();
     ancestors.dedup();
-    workspace.static_ancestors = ancestors;
+    targets.ancestors = ancestors;
     list.sort_by_key(|(target, collider, _, _, _)| (*target, *collider));
-    workspace.static_entities.clear();
-    workspace
-        .static_entities
+    targets.entities.clear();
+    targets
+        .entities
         .extend(list.iter().map(|(target, _, _, _, _)| *target));
-    workspace.static_colliders.clear();
-    workspace
-        .static_colliders
+    targets.colliders.clear();
+    targets
+        .colliders
         .extend(list.iter().map(|(_, collider, _, _, _)| *collider));
-    workspace.static_parts.clear();
-    workspace.static_parts.extend(
+    targets.parts.clear();
+    targets.parts.extend(
         list.iter()
             .enumerate()
             .filter(|(_, (target, collider, _, _, _))| target != collider)
             .map(|(index, (_, collider, _, _, _))| (*collider, index as u32)),
     );
-    workspace.movers.clear();
-    workspace.movers.extend(
+    targets.movers.clear();
+    targets.movers.extend(
         list.iter()
             .enumerate()
             .filter(|(_, (_, _, _, _, moving))| *moving)
             .map(|(index, (target, collider, _, _, _))| (*target, *collider, index as u32)),
     );
-    let movers: Vec<u32> = workspace.movers.iter().map(|m| m.2).collect();
-    workspace.static_parts.sort_unstable();
+    let movers: Vec<u32> = targets.movers.iter().map(|m| m.2).collect();
+    targets.parts.sort_unstable();
     // Layers are kept only when some target has other than the default, so that a world
     // without layers skips the filter altogether.
-    workspace.static_layers.clear();
+    targets.layers.clear();
     if list
         .iter()
         .any(|(_, _, _, l, _)| *l != CollisionLayers::DEFAULT)
     {
-        workspace
-            .static_layers
-            .extend(list.iter().map(|(_, _, _, l, _)| *l));
+        targets.layers.extend(list.iter().map(|(_, _, _, l, _)| *l));
     }
     let items = list.into_iter().map(|(_, _, item, _, _)| item);
-    workspace.statics.rebuild_with_movers(items, &movers);
-    workspace.statics_ready = true;
-    workspace.statics_limit = limit;
-    workspace.rebuilds += 1;
+    targets.set.rebuild_with_movers(items, &movers);
+    targets.ready = true;
+    targets.limit = limit;
+    targets.rebuilds += 1;
 }
 
 /// What [`record_movers`] reads: each moving target (a static with a [`MovingTarget`], a
@@ -317,7 +391,7 @@ pub(crate) fn record_movers(
     movers: Movers,
     ancestry: Ancestry,
 ) {
-    let starts = &mut workspace.mover_starts;
+    let starts = &mut workspace.statics.mover_starts;
     starts.clear();
     for entity in &movers {
         if let Ok(pose) = pose_in(entity, None, &ancestry) {
@@ -380,29 +454,22 @@ pub(crate) fn mover_sweep(
 /// has no planar world pose or whose sweep reaches past `limit` is not hit this step (with a
 /// warning), and the hierarchy is rebuilt at the next step, which leaves it out until its
 /// pose is good again.
-fn move_movers(workspace: &mut CcdWorkspace, watch: &StaticWatch, dt: f32, limit: f32) {
-    if workspace.movers.is_empty() {
+fn move_movers(targets: &mut StaticWorld, watch: &StaticWatch, dt: f32, limit: f32) {
+    if targets.movers.is_empty() {
         return;
     }
-    let mut motions = core::mem::take(&mut workspace.mover_motions);
+    let mut motions = core::mem::take(&mut targets.motions);
     motions.clear();
     let mut bad = false;
-    for &(target, collider, index) in &workspace.movers {
+    for &(target, collider, index) in &targets.movers {
         let angular = watch.velocities.get(target).ok().map(|v| v.angular);
-        let proxy = &workspace.statics.items()[index as usize].proxy;
+        let proxy = &targets.set.items()[index as usize].proxy;
         let at = MoverAt {
             target,
             collider,
             angular,
         };
-        let sweep = mover_sweep(
-            at,
-            proxy,
-            &workspace.mover_starts,
-            &watch.ancestry,
-            dt,
-            limit,
-        );
+        let sweep = mover_sweep(at, proxy, &targets.mover_starts, &watch.ancestry, dt, limit);
         match sweep {
             Ok(sweep) => motions.push((index, sweep)),
             Err(error) => {
@@ -411,14 +478,14 @@ fn move_movers(workspace: &mut CcdWorkspace, watch: &StaticWatch, dt: f32, limit
                      non-finite Transform, a chain with no planar world pose, or a sweep beyond \
                      {limit} m from the origin)"
                 );
-                workspace.statics.disable(index as usize);
+                targets.set.disable(index as usize);
                 bad = true;
             }
         }
     }
-    workspace.statics.move_targets(motions.iter().copied());
-    workspace.mover_motions = motions;
+    targets.set.move_targets(motions.iter().copied());
+    targets.motions = motions;
     if bad {
-        workspace.statics_changed();
+        targets.changed();
     }
 }

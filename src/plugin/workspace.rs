@@ -1,5 +1,6 @@
-//! The plugin's buffers between steps: the static targets, this step's body entries and
-//! their lanes, the warnings given once. Internal; what a user may read of it is published in
+//! The plugin's state between steps, split by concern: the static world
+//! ([`StaticWorld`]), the sensors' ([`SensorWorld`]), this step's body entries and their
+//! lanes ([`BodyLanes`]), and the warnings given once. Internal; what a user may read of it is published in
 //! [`CcdDiagnostics`](super::CcdDiagnostics).
 
 use bevy_ecs::change_detection::Tick;
@@ -10,8 +11,9 @@ use super::compound::Compounds;
 use super::hierarchy::Planar;
 use super::outcome::CcdError;
 use super::sensors::{SensorLane, SensorWorld};
+use super::statics::StaticWorld;
 use super::{CollisionLayers, StaticCollider};
-use crate::geometry::{self, ImpactRecord, StaticSet};
+use crate::geometry::{self, ImpactRecord};
 
 /// One CCD body of this step: what the solver needs, then what it did.
 ///
@@ -46,8 +48,8 @@ pub(crate) struct BodyEntry {
     pub(crate) flags: u8,
     /// Why the body was not swept, or the time of impact that failed.
     pub(crate) error: Option<CcdError>,
-    /// The shape's reach about its centre of mass ([`StepPoses`](super::StepPoses)' copy of the
-    /// collider's, times `scale`; a compound body's parts are placed at its scale already).
+    /// The shape's reach about its centre of mass (the [`Collider`](super::Collider)'s times
+    /// `scale`; a compound body's parts are placed at its scale already).
     pub(crate) reach: f32,
     /// The body's uniform world scale, which scales its collider and mass (see
     /// [`StepPoses`](super::StepPoses)' copy: 0 or NaN for a `Transform` that cannot be swept).
@@ -120,7 +122,7 @@ pub(crate) struct Lane {
     pub(crate) visit: Vec<u32>,
     pub(crate) scratch: Vec<u32>,
     /// The paths and crossings of the lane's bodies, when the world has sensors (the paths
-    /// also when [`CcdWorkspace::keep_paths`]).
+    /// also when [`BodyLanes::keep_paths`]).
     pub(crate) sensing: Box<SensorLane>,
 }
 
@@ -134,59 +136,61 @@ impl Lane {
     }
 }
 
-/// The plugin's buffers: the static world and this step's bodies and lanes. Kept between
-/// steps so that the steady state allocates nothing of its own.
-#[derive(Resource, Default)]
-pub(crate) struct CcdWorkspace {
-    pub(crate) statics: StaticSet,
-    /// The target entity of each item, the [`StaticCollider`](super::StaticCollider) (items
-    /// are in the order of their target entity, then of their collider entity).
-    pub(crate) static_entities: Vec<Entity>,
-    /// The collider entity of each item: the target's own, or one of its parts.
-    pub(crate) static_colliders: Vec<Entity>,
-    /// The parts (colliders below a target) in the hierarchy and their item index, sorted by
-    /// entity.
-    pub(crate) static_parts: Vec<(Entity, u32)>,
-    /// The ancestors of the items at the last rebuild, sorted and deduplicated: when one
-    /// moves, the hierarchy is rebuilt.
-    pub(crate) static_ancestors: Vec<Entity>,
+/// The bodies of this step and their lanes: what the solve lists, gathers, solves and
+/// writes back. Kept between steps so that the steady state allocates nothing.
+#[derive(Default)]
+pub(crate) struct BodyLanes {
+    /// This step's swept bodies, in listing order.
+    pub(crate) entries: Vec<BodyEntry>,
+    pub(crate) lanes: Vec<Lane>,
+    /// Bodies per lane this step.
+    pub(crate) lane_len: usize,
     /// This step's child bodies (sorted by entity): their parent's world pose at
     /// [`record_end`](super::record::record_end), which the write-back turns a resolved world
     /// pose into a local `Transform` with, or why their chain has none. Empty in a world
     /// without child bodies.
     pub(crate) child_frames: Vec<(Entity, Result<Planar, CcdError>)>,
-    /// The moving targets' items: target entity, collider entity and item index, in item
-    /// order ([`MovingTarget`](super::MovingTarget)).
-    pub(crate) movers: Vec<(Entity, Entity, u32)>,
-    /// The moving targets' world poses (position, angle) at the start of the step, by target
-    /// entity ([`record_movers`](super::statics::record_movers)).
-    pub(crate) mover_starts: Vec<(Entity, Vec2, f32)>,
-    /// This step's motions of the movers, handed to the static set (kept for its capacity).
-    pub(crate) mover_motions: Vec<(u32, geometry::Sweep)>,
-    /// The layers of each target, in target order; empty when every target has the default
-    /// layers.
-    pub(crate) static_layers: Vec<CollisionLayers>,
+    /// Every solved body's path over the step is recorded in its lane (not only when the
+    /// world has sensors), and kept there until the next step: the debug view draws it.
+    pub(crate) keep_paths: bool,
+}
+
+impl BodyLanes {
+    /// Each lane with its bodies, in listing order.
+    pub(crate) fn by_lane(&self) -> impl Iterator<Item = (&Lane, &[BodyEntry])> {
+        self.lanes
+            .iter()
+            .zip(self.entries.chunks(self.lane_len.max(1)))
+    }
+
+    /// Bytes held per swept body (capacity of the per-body buffers divided by the body
+    /// count).
+    pub(crate) fn bytes_per_body(&self) -> usize {
+        let n = self.entries.len().max(1);
+        (self.entries.capacity() * size_of::<BodyEntry>()
+            + self.lanes.iter().map(Lane::bytes).sum::<usize>()
+            + self.lanes.capacity() * size_of::<Lane>())
+            / n
+    }
+}
+
+/// The plugin's state between steps, one part per concern: the static world, the sensors'
+/// world, this step's bodies and lanes, and the step's bookkeeping. Each phase takes the
+/// parts it needs.
+#[derive(Resource, Default)]
+pub(crate) struct CcdWorkspace {
+    /// The solid targets ([`update_statics`](super::statics::update_statics)).
+    pub(crate) statics: StaticWorld,
     /// The sensors, in a hierarchy of their own.
     pub(crate) sensors: SensorWorld,
-    /// The hierarchy holds every static as it is now.
-    pub(crate) statics_ready: bool,
-    /// The coordinate limit the hierarchy was built with: a new slop rebuilds it.
-    pub(crate) statics_limit: f32,
-    /// Times the hierarchy was built.
-    pub(crate) rebuilds: u64,
-    pub(crate) bodies: Vec<BodyEntry>,
-    pub(crate) lanes: Vec<Lane>,
-    /// Bodies per lane this step.
-    pub(crate) lane_len: usize,
+    /// This step's bodies and their lanes.
+    pub(crate) bodies: BodyLanes,
     /// The tick the last solve ran at: a `Transform` not changed since then is where that
     /// solve left it (see [`record_start`](super::record::record_start)).
     pub(crate) written_at: Option<Tick>,
     /// Steps begun ([`record_start`](super::record::record_start) counts them):
-    /// [`StepPoses`] names the one its start was recorded in.
+    /// [`StepPoses`](super::StepPoses) names the one its start was recorded in.
     pub(crate) step: u32,
-    /// Every solved body's path over the step is recorded in its lane (not only when the
-    /// world has sensors), and kept there until the next step: the debug view draws it.
-    pub(crate) keep_paths: bool,
     /// The warnings given once per app ([`Warned`]).
     warned: u8,
 }
@@ -203,46 +207,12 @@ impl Warned {
 }
 
 impl CcdWorkspace {
-    /// Marks the static hierarchy stale: it is rebuilt before the next sweep. Called by the
-    /// hooks of [`StaticCollider`](super::StaticCollider) and [`Collider`](super::Collider).
-    pub(crate) fn statics_changed(&mut self) {
-        self.statics_ready = false;
-    }
-
     /// A static's [`StaticCollider`](super::StaticCollider) or [`Collider`](super::Collider)
-    /// was removed (or it was despawned): the hierarchy is stale, and the target (all its
-    /// items, parts included) is not hit from now on, also by a step under way whose hierarchy
-    /// holds it. Called by their hooks.
+    /// was removed (or it was despawned): neither world hits it from now on
+    /// ([`StaticWorld::removed`]). Called by their hooks.
     pub(crate) fn static_removed(&mut self, entity: Entity) {
-        self.statics_ready = false;
-        // Items are in target order.
-        let first = self.static_entities.partition_point(|e| *e < entity);
-        let count = self.static_entities[first..]
-            .iter()
-            .take_while(|e| **e == entity)
-            .count();
-        for index in first..first + count {
-            self.statics.disable(index);
-        }
+        self.statics.removed(entity);
         self.sensors.removed(entity);
-    }
-
-    /// A part's [`Collider`](super::Collider) was removed: if it is in the hierarchy, the
-    /// hierarchy is stale and the part is not hit from now on. Called by its hook.
-    pub(crate) fn part_removed(&mut self, entity: Entity) {
-        if let Some(index) = self.static_part(entity) {
-            self.statics_ready = false;
-            self.statics.disable(index as usize);
-        }
-    }
-
-    /// The item index of `entity` if it is a part of a target in the hierarchy.
-    pub(crate) fn static_part(&self, entity: Entity) -> Option<u32> {
-        let at = self
-            .static_parts
-            .binary_search_by_key(&entity, |(e, _)| *e)
-            .ok()?;
-        Some(self.static_parts[at].1)
     }
 
     /// Gives a warning, unless one of this kind was given before.
@@ -251,15 +221,5 @@ impl CcdWorkspace {
             self.warned |= kind;
             log::warn!("bevy_ccd: {} (warned once)", message());
         }
-    }
-
-    /// Bytes the workspace holds per swept body (capacity of its per-body buffers divided by
-    /// the body count).
-    pub(crate) fn bytes_per_body(&self) -> usize {
-        let n = self.bodies.len().max(1);
-        (self.bodies.capacity() * size_of::<BodyEntry>()
-            + self.lanes.iter().map(Lane::bytes).sum::<usize>()
-            + self.lanes.capacity() * size_of::<Lane>())
-            / n
     }
 }
