@@ -789,11 +789,21 @@ fn solve<const MOVERS: bool>(
             patches.push(((a - center, b - center), -normal, push));
             // A moving target's velocity at the body's centre and its spin: the response
             // acts on the body's velocity relative to the target's (a rigid motion too).
-            let frame =
-                carried(index, step_fraction).map(|(v, w, c)| (v + w * left_perp(center - c), w));
-            frames.push(frame);
-            on_mover |= frame.is_some();
+            // Kept only where a target may move: a still world has none to store or read.
+            if MOVERS {
+                let frame = carried(index, step_fraction)
+                    .map(|(v, w, c)| (v + w * left_perp(center - c), w));
+                frames.push(frame);
+                on_mover |= frame.is_some();
+            }
         }
+        let frame_of = |contact: usize| {
+            if MOVERS {
+                frames.get(contact).copied().flatten()
+            } else {
+                None
+            }
+        };
         result.impacts += contacts.len() as u32;
         // Restitution on the first pass, then inelastic passes until no contact approaches:
         // Gauss-Seidel over the contacts, as a sequential-impulse solver iterates, since one
@@ -804,7 +814,8 @@ fn solve<const MOVERS: bool>(
         'passes: for pass in 0..CONTACT_PASSES {
             let before = velocity;
             let restitution = if pass == 0 { body.restitution } else { 0.0 };
-            for (&(ends, outward, _), &frame) in patches.iter().zip(&frames) {
+            for (contact, &(ends, outward, _)) in patches.iter().enumerate() {
+                let frame = frame_of(contact);
                 let mass = (body.mass, body.inertia);
                 let relative = match frame {
                     None => velocity,
@@ -838,8 +849,8 @@ fn solve<const MOVERS: bool>(
         }
         // The push, through the centre of mass (every point of the body moves away, whatever
         // it turns), after the contacts are resolved.
-        for (&(_, outward, push), &frame) in patches.iter().zip(&frames) {
-            let along = match frame {
+        for (contact, &(_, outward, push)) in patches.iter().enumerate() {
+            let along = match frame_of(contact) {
                 None => velocity.0.dot(outward),
                 Some((v, _)) => (velocity.0 - v).dot(outward),
             };
