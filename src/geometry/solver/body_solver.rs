@@ -145,6 +145,10 @@ pub struct BodyOutcome {
 /// can first reach them (a swept box rarely holds more than a handful).
 const ORDERED_TARGETS: usize = 32;
 
+/// A (part, target) pair to visit: the fractions of the sweep it can be hit within (enter,
+/// leave), the target, the part.
+type Visit = ((f32, f32), u32, u32);
+
 /// The patch (world ends) of a contact a response acted on, by (target, part).
 type KnownPatch = (u32, u32, (Vec2, Vec2));
 
@@ -507,9 +511,9 @@ fn solve<const MOVERS: bool>(
         // Visit the targets in the order the body can first reach them (branch and bound):
         // once that is later than the earliest hit so far, no target left can change the
         // answer. Targets the body never reaches drop out here. Short lists (nearly all) are
-        // ordered on the stack; a longer one is visited as it comes.
-        let mut order = [((0.0f32, 1.0f32), 0u32, 0u32); ORDERED_TARGETS];
-        let mut ordered = 0;
+        // ordered on the stack, in a buffer not filled before it is used (a filled array is a
+        // 512-byte store every sweep); a longer one is visited as it comes.
+        let mut order: SmallVec<[Visit; ORDERED_TARGETS]> = SmallVec::new();
         let short = list.len() * n <= ORDERED_TARGETS;
         if short {
             for &index in list {
@@ -541,18 +545,19 @@ fn solve<const MOVERS: bool>(
                     if let Some(window) = window {
                         // Insertion by fraction after the pairs in (target, part) order:
                         // deterministic, ties in that order.
-                        let mut k = ordered;
+                        let pair = (window, index, part as u32);
+                        order.push(pair);
+                        let mut k = order.len() - 1;
                         while k > 0 && order[k - 1].0.0 > window.0 {
                             order[k] = order[k - 1];
                             k -= 1;
                         }
-                        order[k] = (window, index, part as u32);
-                        ordered += 1;
+                        order[k] = pair;
                     }
                 }
             }
         }
-        let visits = if short { ordered } else { list.len() * n };
+        let visits = if short { order.len() } else { list.len() * n };
         // Earliest hit; ties go to the lowest target index, then the lowest part.
         let mut best: Option<(f32, u32, u32, Contact, bool, bool)> = None;
         let mut failed: Option<(f32, ToiFailure)> = None;
