@@ -116,10 +116,15 @@ impl Compounds {
         let collider = colliders
             .get(entry.entity)
             .map_err(|_| CcdError::InvalidBodyData)?;
-        // Scaled by the body's uniform world scale (1 leaves every bit as it is).
+        // Scaled by the body's uniform world scale (1 leaves every bit as it is). The proxy is
+        // copied into `own` in place: through a returned pair it was copied twice.
         let mut mass = collider.mass_properties(1.0);
         (mass.mass, mass.inertia) = collider.scaled_unit_mass(entry.scale);
-        (own.proxy, own.core_radius) = collider.scaled(entry.scale);
+        own.proxy = *collider.proxy();
+        own.core_radius = collider.core_radius();
+        if entry.scale != 1.0 {
+            (own.proxy, own.core_radius) = collider.scaled(entry.scale);
+        }
         own.core_center = mass.center * entry.scale;
         Ok(mass)
     }
@@ -132,16 +137,13 @@ impl Compounds {
         entry: &BodyEntry,
         own: &'a BodyPart,
     ) -> (&'a [BodyPart], Option<&'a [CollisionLayers]>) {
-        match (entry.flags & COMPOUND != 0)
-            .then(|| self.find(entry.entity))
-            .flatten()
+        if entry.flags & COMPOUND != 0
+            && let Some(body) = self.find(entry.entity)
         {
-            Some(body) => {
-                let (parts, layers) = self.parts(body);
-                (parts, Some(layers))
-            }
-            None => (core::slice::from_ref(own), None),
+            let (parts, layers) = self.parts(body);
+            return (parts, Some(layers));
         }
+        (core::slice::from_ref(own), None)
     }
 
     /// The collider entity of part `part` of the swept body `entry`: the body itself unless it

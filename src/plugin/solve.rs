@@ -300,13 +300,13 @@ fn store(body: &mut BodyEntry, outcome: BodyOutcome) {
     if outcome.nudged {
         body.flags |= NUDGED;
     }
-    // A body swept only as far as the coordinate limit keeps that error unless it was stopped.
-    let beyond = body.error.filter(|_| outcome.impacts == 0);
-    body.error = outcome
-        .failure
-        .map(CcdError::Toi)
-        .or(outcome.squeezed.then_some(CcdError::Squeezed))
-        .or(beyond);
+    body.error = match outcome.failure {
+        Some(failure) => Some(CcdError::Toi(failure)),
+        None if outcome.squeezed => Some(CcdError::Squeezed),
+        // A body swept only as far as the coordinate limit keeps that error unless it was
+        // stopped.
+        None => body.error.filter(|_| outcome.impacts == 0),
+    };
 }
 
 /// The [`BodyState`] of an entry.
@@ -438,7 +438,8 @@ pub(crate) fn solve_lane(
             }];
             let part_layers = part_layers.unwrap_or(&own_layers);
             let layered = !shared.static_layers.is_empty()
-                || part_layers.iter().any(|l| *l != CollisionLayers::DEFAULT);
+                || (body.flags & (HAS_LAYERS | COMPOUND) != 0
+                    && part_layers.iter().any(|l| *l != CollisionLayers::DEFAULT));
             body.impacts = impacts.len() as u32;
             let state = state(body);
             let rules = Rules {

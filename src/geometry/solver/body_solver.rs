@@ -145,6 +145,10 @@ pub struct BodyOutcome {
 /// can first reach them (a swept box rarely holds more than a handful).
 const ORDERED_TARGETS: usize = 32;
 
+/// A (part, target) pair to visit: the fractions of the sweep it can be hit within (enter,
+/// leave), the target, the part.
+type Visit = ((f32, f32), u32, u32);
+
 /// The patch (world ends) of a contact a response acted on, by (target, part).
 type KnownPatch = (u32, u32, (Vec2, Vec2));
 
@@ -507,9 +511,9 @@ fn solve<const MOVERS: bool>(
         // Visit the targets in the order the body can first reach them (branch and bound):
         // once that is later than the earliest hit so far, no target left can change the
         // answer. Targets the body never reaches drop out here. Short lists (nearly all) are
-        // ordered on the stack; a longer one is visited as it comes.
-        let mut order = [((0.0f32, 1.0f32), 0u32, 0u32); ORDERED_TARGETS];
-        let mut ordered = 0;
+        // ordered on the stack, in a buffer not filled before it is used (a filled array is a
+        // 512-byte store every sweep); a longer one is visited as it comes.
+        let mut order: SmallVec<[Visit; ORDERED_TARGETS]> = SmallVec::new();
         let short = list.len() * n <= ORDERED_TARGETS;
         if short {
             for &index in list {
@@ -541,18 +545,19 @@ fn solve<const MOVERS: bool>(
                     if let Some(window) = window {
                         // Insertion by fraction after the pairs in (target, part) order:
                         // deterministic, ties in that order.
-                        let mut k = ordered;
+                        let pair = (window, index, part as u32);
+                        order.push(pair);
+                        let mut k = order.len() - 1;
                         while k > 0 && order[k - 1].0.0 > window.0 {
                             order[k] = order[k - 1];
                             k -= 1;
                         }
-                        order[k] = (window, index, part as u32);
-                        ordered += 1;
+                        order[k] = pair;
                     }
                 }
             }
         }
-        let visits = if short { ordered } else { list.len() * n };
+        let visits = if short { order.len() } else { list.len() * n };
         // Earliest hit; ties go to the lowest target index, then the lowest part.
         let mut best: Option<(f32, u32, u32, Contact, bool, bool)> = None;
         let mut failed: Option<(f32, ToiFailure)> = None;
@@ -789,11 +794,21 @@ fn solve<const MOVERS: bool>(
             patches.push(((a - center, b - center), -normal, push));
             // A moving target's velocity at the body's centre and its spin: the response
             // acts on the body's velocity relative to the target's (a rigid motion too).
-            let frame =
-                carried(index, step_fraction).map(|(v, w, c)| (v + w * left_perp(center - c), w));
-            frames.push(frame);
-            on_mover |= frame.is_some();
+            // Kept only where a target may move: a still world has none to store or read.
+            if MOVERS {
+                let frame = carried(index, step_fraction)
+                    .map(|(v, w, c)| (v + w * left_perp(center - c), w));
+                frames.push(frame);
+                on_mover |= frame.is_some();
+            }
         }
+        let frame_of = |contact: usize| {
+            if MOVERS {
+                frames.get(contact).copied().flatten()
+            } else {
+                None
+            }
+        };
         result.impacts += contacts.len() as u32;
         // Restitution on the first pass, then inelastic passes until no contact approaches:
         // Gauss-Seidel over the contacts, as a sequential-impulse solver iterates, since one
@@ -804,7 +819,8 @@ fn solve<const MOVERS: bool>(
         'passes: for pass in 0..CONTACT_PASSES {
             let before = velocity;
             let restitution = if pass == 0 { body.restitution } else { 0.0 };
-            for (&(ends, outward, _), &frame) in patches.iter().zip(&frames) {
+            for (contact, &(ends, outward, _)) in patches.iter().enumerate() {
+                let frame = frame_of(contact);
                 let mass = (body.mass, body.inertia);
                 let relative = match frame {
                     None => velocity,
@@ -838,8 +854,8 @@ fn solve<const MOVERS: bool>(
         }
         // The push, through the centre of mass (every point of the body moves away, whatever
         // it turns), after the contacts are resolved.
-        for (&(_, outward, push), &frame) in patches.iter().zip(&frames) {
-            let along = match frame {
+        for (contact, &(_, outward, push)) in patches.iter().enumerate() {
+            let along = match frame_of(contact) {
                 None => velocity.0.dot(outward),
                 Some((v, _)) => (velocity.0 - v).dot(outward),
             };

@@ -20,8 +20,16 @@ pub(crate) fn reduced_angle(a0: f32) -> f32 {
     if a0.abs() <= core::f32::consts::PI {
         a0
     } else {
-        a0 - (a0 / core::f32::consts::TAU).round() * core::f32::consts::TAU
+        reduced_far(a0)
     }
+}
+
+/// [`reduced_angle`] beyond a half turn, out of line: inlined, the compiler computed it for
+/// every sweep and kept the result only for the few that need it.
+#[cold]
+#[inline(never)]
+fn reduced_far(a0: f32) -> f32 {
+    a0 - (a0 / core::f32::consts::TAU).round() * core::f32::consts::TAU
 }
 
 impl ToiDim for D2 {
