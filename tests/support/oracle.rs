@@ -16,7 +16,7 @@ use super::reference::{Core, P, PoseD, center_at, core_distance, pose_at, to_p};
 mod scoring;
 // Each includer uses its own part of these.
 #[allow(unused_imports)]
-pub use scoring::{EPS, Model, Oracle, Reference, Reported, SLOP, Verdict};
+pub use scoring::{EPS, Model, Oracle, Reference, Reported, SLOP, Verdict, score_by_rules};
 
 #[derive(Deserialize, Clone, Debug)]
 pub struct ShapeJson {

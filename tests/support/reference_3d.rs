@@ -26,7 +26,7 @@ use serde::Deserialize;
 mod scoring;
 // Each includer uses its own part of these.
 #[allow(unused_imports)]
-pub use scoring::{EPS, Model, Oracle, Reference, Reported, SLOP, Verdict};
+pub use scoring::{EPS, Model, Oracle, Reference, Reported, SLOP, Verdict, score_by_rules};
 
 /// A core (convex hull of points) in its local frame, in `f64`.
 #[derive(Clone, Debug)]
@@ -408,17 +408,6 @@ impl Case {
 /// with the distance evaluated at the reported fraction by `pair`. Returns the verdict and,
 /// for hits and overlaps, the true surface distance there.
 pub fn score(pair: &Pair, r: &Reference, out: &ToiOutput) -> (Verdict, Option<f64>) {
-    score_reported(pair, Model::Angle, r, out.state.into(), out.fraction as f64)
-}
-
-/// Scores a result of any implementation by the README's rules against the reference `r` of
-/// the model it follows, the distance evaluated under that model.
-pub fn score_reported(
-    pair: &Pair,
-    model: Model,
-    r: &Reference,
-    state: Reported,
-    t: f64,
-) -> (Verdict, Option<f64>) {
-    scoring::score_by_rules(r, state, t, |s| pair.distance_at_model(model, s))
+    let distance_at = |s| pair.distance_at_model(Model::Angle, s);
+    score_by_rules(r, out.state.into(), out.fraction as f64, distance_at)
 }
