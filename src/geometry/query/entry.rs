@@ -1,7 +1,9 @@
 //! The pieces of a ray's entry that the plane and space share ([`ray`](super::ray) and
 //! [`d3::ray`](crate::geometry::d3)): the entry into a ball (a disc in the plane, a sphere in
 //! space) and the Cyrus-Beck clip of the ray's interval by half-spaces. Both are the same
-//! algebra in either dimension, over the `f64` vectors of [`ExactVector`].
+//! algebra in either dimension, over the `f64` vectors of [`ExactVector`]. They are marked
+//! `#[inline]`: each ray entry calls them per piece from another module, and they should
+//! compile into it as if written there.
 
 use crate::geometry::dim::ExactVector;
 
@@ -14,6 +16,7 @@ use crate::geometry::dim::ExactVector;
 /// vector across the ray rather than as `b² - k` (which cancels for a far ball), and the root
 /// is `s = k / (-b + h)` (not `-b - h`, which cancels for an origin near the surface).
 /// Returns the distance and the outward unit normal; `0` and a zero normal from inside.
+#[inline]
 pub(crate) fn ball_entry<V: ExactVector>(o: V, d: V, max: f64, c: V, r: f64) -> Option<(f64, V)> {
     let m = o - c;
     let k = m.length_squared() - r * r;
@@ -42,6 +45,7 @@ pub(crate) struct Clip<V> {
 }
 
 impl<V: ExactVector> Clip<V> {
+    #[inline]
     pub(crate) fn new(max: f64) -> Self {
         Self {
             enter: 0.0,
@@ -53,6 +57,7 @@ impl<V: ExactVector> Clip<V> {
     /// Clips by `n·x <= offset` for the ray from `o` along `d`, i.e.
     /// `s (n·d) <= offset - n·o`; whether the interval is still non-empty. The normal needs
     /// no unit length (the clip's times are ratios).
+    #[inline]
     pub(crate) fn side(&mut self, o: V, d: V, n: V, offset: f64) -> bool {
         let (num, den) = (offset - n.dot(o), n.dot(d));
         if den == 0.0 {
