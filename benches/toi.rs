@@ -27,7 +27,7 @@
 //!   `ConvexPolygon`, or `RoundShape<ConvexPolygon>` when rounded.
 //!
 //! Each result is scored against the reference of the model it follows
-//! ([`oracle::score_model`]). A peer's odd output (an error, a failed status, a fraction that
+//! ([`oracle::score_by_rules`]). A peer's odd output (an error, a failed status, a fraction that
 //! is not a number in `[0, 1]`, a panic) scores *failed*; it never stops the run.
 //!
 //! The families `separated` and `near_miss` are generated ([`oracle::separated_cases`]): pairs
@@ -86,8 +86,8 @@ use std::time::{Duration, SystemTime};
 use bevy_ccd::geometry::{ToiBody, ToiInput, ToiOutput, time_of_impact, time_of_impact_prepared};
 use criterion::{Criterion, Throughput};
 use oracle::{
-    Case, Model, NEAR_MISS_FAMILY, Reported, SEPARATED_FAMILY, Verdict, load_cases, score_model,
-    separated_cases,
+    Case, Model, NEAR_MISS_FAMILY, Reference, Reported, SEPARATED_FAMILY, Verdict, load_cases,
+    score_by_rules, separated_cases,
 };
 use parry2d::math::{Pose, Vector};
 use parry2d::query::sweep_toi::{
@@ -96,8 +96,8 @@ use parry2d::query::sweep_toi::{
 use parry2d::query::{NonlinearRigidMotion, ShapeCastStatus, cast_shapes_nonlinear};
 use parry2d::shape::{Ball, Capsule, ConvexPolygon, RoundShape, Segment, Shape};
 use toi_common::{
-    RunMode, fmt_len, fmt_ns, fmt_ratio, guarded, median, median_ns, ratio, target_dir,
-    time_interleaved,
+    Answer, RunMode, Scores, fmt_len, fmt_ns, fmt_ratio, guarded, median, median_ns, ratio,
+    target_dir, time_cases,
 };
 
 /// The families: the README's, in its order, then the generated one.
@@ -120,16 +120,6 @@ const RATIO_TARGET: f64 = 0.75;
 
 /// The linear slop of the cases (m), for the peers that take it as an argument.
 const SLOP: f32 = oracle::SLOP as f32;
-
-/// Verdict columns of the table, in order.
-const VERDICTS: [Verdict; 6] = [
-    Verdict::Correct,
-    Verdict::Miss,
-    Verdict::Late,
-    Verdict::Early,
-    Verdict::Ghost,
-    Verdict::Failed,
-];
 
 /// One of the implementations compared.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
@@ -341,38 +331,9 @@ fn call_parry_nonlinear(
     )
 }
 
-/// An implementation's result in the README's terms, with its raw form for the verbose list.
-struct Answer {
-    state: Reported,
-    t: f64,
-    raw: String,
-    /// The implementation flagged the answer as unreliable but still gave it (parry's
-    /// `ShapeCastStatus::Failed`, read as a hit).
-    flagged: bool,
-}
-
-/// A reported state with its fraction; a fraction that is not a number in `[0, 1]` makes it
-/// a failure.
-fn answer(state: Reported, t: f32, raw: String) -> Answer {
-    if state != Reported::Failed && !(0.0..=1.0).contains(&t) {
-        return Answer {
-            state: Reported::Failed,
-            t: 0.0,
-            raw,
-            flagged: false,
-        };
-    }
-    Answer {
-        state,
-        t: f64::from(t),
-        raw,
-        flagged: false,
-    }
-}
-
 fn interpret_ours(out: &ToiOutput) -> Answer {
     let raw = format!("{:?} t={} it={}", out.state, out.fraction, out.iterations);
-    answer(out.state.into(), out.fraction, raw)
+    Answer::new(out.state.into(), out.fraction, raw)
 }
 
 fn interpret_box2d(out: &boxdd::Result<boxdd::ToiOutput>) -> Answer {
@@ -381,23 +342,23 @@ fn interpret_box2d(out: &boxdd::Result<boxdd::ToiOutput>) -> Answer {
         Ok(out) => {
             let raw = format!("{:?} t={}", out.state, out.fraction);
             match out.state {
-                S::Hit => answer(Reported::Hit, out.fraction, raw),
-                S::Separated => answer(Reported::Separated, out.fraction, raw),
-                S::Overlapped => answer(Reported::Overlapped, out.fraction, raw),
-                S::Failed | S::Unknown => answer(Reported::Failed, 0.0, raw),
+                S::Hit => Answer::new(Reported::Hit, out.fraction, raw),
+                S::Separated => Answer::new(Reported::Separated, out.fraction, raw),
+                S::Overlapped => Answer::new(Reported::Overlapped, out.fraction, raw),
+                S::Failed | S::Unknown => Answer::new(Reported::Failed, 0.0, raw),
             }
         }
-        Err(e) => answer(Reported::Failed, 0.0, format!("error: {e}")),
+        Err(e) => Answer::new(Reported::Failed, 0.0, format!("error: {e}")),
     }
 }
 
 fn interpret_parry_sweep(out: &SweepToiOutput) -> Answer {
     let raw = format!("{:?} t={}", out.status, out.fraction);
     match out.status {
-        SweepToiStatus::Hit => answer(Reported::Hit, out.fraction, raw),
-        SweepToiStatus::Separated => answer(Reported::Separated, out.fraction, raw),
-        SweepToiStatus::Overlapped => answer(Reported::Overlapped, out.fraction, raw),
-        SweepToiStatus::Failed => answer(Reported::Failed, 0.0, raw),
+        SweepToiStatus::Hit => Answer::new(Reported::Hit, out.fraction, raw),
+        SweepToiStatus::Separated => Answer::new(Reported::Separated, out.fraction, raw),
+        SweepToiStatus::Overlapped => Answer::new(Reported::Overlapped, out.fraction, raw),
+        SweepToiStatus::Failed => Answer::new(Reported::Failed, 0.0, raw),
     }
 }
 
@@ -405,28 +366,30 @@ fn interpret_parry_nonlinear(
     out: &Result<Option<parry2d::query::ShapeCastHit>, parry2d::query::Unsupported>,
 ) -> Answer {
     match out {
-        Ok(None) => answer(Reported::Separated, 1.0, "None".into()),
+        Ok(None) => Answer::new(Reported::Separated, 1.0, "None".into()),
         Ok(Some(hit)) => {
             let t = hit.time_of_impact;
             let raw = format!("{:?} t={t}", hit.status);
             match hit.status {
                 ShapeCastStatus::Converged | ShapeCastStatus::OutOfIterations => {
-                    answer(Reported::Hit, t, raw)
+                    Answer::new(Reported::Hit, t, raw)
                 }
                 ShapeCastStatus::PenetratingOrWithinTargetDist if t == 0.0 => {
-                    answer(Reported::Overlapped, t, raw)
+                    Answer::new(Reported::Overlapped, t, raw)
                 }
-                ShapeCastStatus::PenetratingOrWithinTargetDist => answer(Reported::Hit, t, raw),
+                ShapeCastStatus::PenetratingOrWithinTargetDist => {
+                    Answer::new(Reported::Hit, t, raw)
+                }
                 // "Still a conservative approximation of the actual result, often fine to
                 // interpret as a success" (parry's docs), and Rapier uses it so: a hit, which
                 // the scorer then judges by the distance at `t`.
                 ShapeCastStatus::Failed => Answer {
                     flagged: true,
-                    ..answer(Reported::Hit, t, raw)
+                    ..Answer::new(Reported::Hit, t, raw)
                 },
             }
         }
-        Err(e) => answer(Reported::Failed, 0.0, format!("error: {e:?}")),
+        Err(e) => Answer::new(Reported::Failed, 0.0, format!("error: {e:?}")),
     }
 }
 
@@ -434,20 +397,11 @@ fn interpret_parry_nonlinear(
 // Scoring
 // ---------------------------------------------------------------------------------------------
 
-/// The scores of one implementation on one family.
+/// One implementation on one family: its scores, how many cases were timed and criterion's
+/// median.
 #[derive(Default)]
 struct Tally {
-    verdicts: BTreeMap<Verdict, usize>,
-    unsupported: usize,
-    /// Cases it could not be run on (input rejected while building, or a panic): scored
-    /// failed and left out of the timing.
-    not_run: usize,
-    /// `|d(t)|` at every hit (m), the README's accuracy measure.
-    abs_d: Vec<f64>,
-    /// Answers the implementation flagged as unreliable (see [`Answer::flagged`]).
-    flagged: usize,
-    /// One line per answer that is not correct (printed with `TOI_BENCH_VERBOSE=1`).
-    wrong: Vec<String>,
+    scores: Scores,
     /// Cases timed.
     timed: usize,
     /// Criterion's median time per call (ns), when it measured in this run.
@@ -457,47 +411,25 @@ struct Tally {
 impl Tally {
     /// Scores an answer; returns its verdict (`None`: unsupported).
     fn add(&mut self, case: &Case, model: Model, answer: &Answer) -> Option<Verdict> {
-        self.flagged += usize::from(answer.flagged);
-        let (verdict, d) = match score_model(case, model, answer.state, answer.t) {
-            None => {
-                self.unsupported += 1;
-                return None;
-            }
-            Some(scored) => scored,
-        };
-        *self.verdicts.entry(verdict).or_default() += 1;
-        if let (Some(d), Reported::Hit) = (d, answer.state) {
-            self.abs_d.push(d.abs());
-        }
-        if verdict != Verdict::Correct {
-            let r = case.reference(model).expect("scored, so referenced");
-            self.wrong.push(format!(
-                "{} {verdict:?}: {} d(t)={} | t_touch={:?} min_dist={:.3e} d0={:.3e}",
-                case.id,
-                answer.raw,
-                d.map_or_else(|| "-".into(), |d| format!("{d:.3e}")),
-                r.t_touch,
-                r.min_dist,
-                r.d0,
-            ));
-        }
-        Some(verdict)
+        let distance_at = |s| case.distance_at_model(model, s);
+        self.scores
+            .add(&case.id, case.reference(model), answer, distance_at)
     }
 
     /// A case the implementation could not be run on: failed, and not timed.
     fn add_not_run(&mut self, case: &Case, why: &str) {
-        self.not_run += 1;
-        *self.verdicts.entry(Verdict::Failed).or_default() += 1;
-        self.wrong.push(format!("{} not run: {why}", case.id));
+        self.scores.add_not_run(&case.id, why);
     }
 
     fn count(&self, verdict: Verdict) -> usize {
-        self.verdicts.get(&verdict).copied().unwrap_or(0)
+        self.scores.count(verdict)
     }
 
     /// No miss, no failure, nothing unsupported.
     fn right(&self) -> bool {
-        self.count(Verdict::Miss) == 0 && self.count(Verdict::Failed) == 0 && self.unsupported == 0
+        self.count(Verdict::Miss) == 0
+            && self.count(Verdict::Failed) == 0
+            && self.scores.unsupported == 0
     }
 }
 
@@ -744,20 +676,6 @@ fn criterion_median(group: &str, function: &str, since: SystemTime) -> Option<f6
         .filter(|ns| ns.is_finite() && *ns > 0.0)
 }
 
-/// Times every case on its own, the implementations interleaved (see the module
-/// documentation).
-fn time_cases(family: &mut Family<'_>, rounds: usize) {
-    family.ns = family
-        .inputs
-        .iter()
-        .map(|inputs| {
-            let engines: Vec<Engine> = Engine::ALL.into_iter().filter(|&e| inputs.has(e)).collect();
-            let ns = time_interleaved(&engines, rounds, |e| inputs.call(e));
-            engines.into_iter().zip(ns).collect()
-        })
-        .collect();
-}
-
 fn group_name(family: &str) -> String {
     format!("toi-{family}")
 }
@@ -786,7 +704,13 @@ fn bench_family(c: &mut Criterion, family: &mut Family<'_>, mode: &RunMode, sinc
             family.tally(engine).criterion_ns = ns.map(|ns| ns / timed as f64);
         }
     }
-    time_cases(family, mode.rounds());
+    family.ns = time_cases(
+        &family.inputs,
+        &Engine::ALL,
+        mode.rounds(),
+        Inputs::has,
+        Inputs::call,
+    );
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -857,8 +781,12 @@ fn family_table(out: &mut String, family: &Family<'_>) {
     );
     for engine in Engine::ALL {
         let t = &family.tallies[&engine];
-        let counts: Vec<String> = VERDICTS.iter().map(|&v| t.count(v).to_string()).collect();
+        let counts: Vec<String> = Verdict::ALL
+            .iter()
+            .map(|&v| t.count(v).to_string())
+            .collect();
         let max_d = t
+            .scores
             .abs_d
             .iter()
             .copied()
@@ -869,8 +797,8 @@ fn family_table(out: &mut String, family: &Family<'_>) {
             engine.name(),
             engine.model().name(),
             counts.join(" | "),
-            t.unsupported,
-            fmt_len(median(&t.abs_d)),
+            t.scores.unsupported,
+            fmt_len(median(&t.scores.abs_d)),
             fmt_len(max_d),
             fmt_ns(family.median_ns(engine)),
             fmt_ns(t.criterion_ns),
@@ -890,26 +818,26 @@ fn family_table(out: &mut String, family: &Family<'_>) {
     );
     for engine in Engine::ALL {
         let t = &family.tallies[&engine];
-        if t.not_run > 0 {
+        if t.scores.not_run > 0 {
             let _ = writeln!(
                 out,
                 "{} could not run {} case(s) (scored failed, not timed).",
                 engine.name(),
-                t.not_run
+                t.scores.not_run
             );
         }
-        if t.flagged > 0 {
+        if t.scores.flagged > 0 {
             let _ = writeln!(
                 out,
                 "{} flagged {} answer(s) as failed but gave a time (scored as hits).",
                 engine.name(),
-                t.flagged
+                t.scores.flagged
             );
         }
     }
     if std::env::var_os("TOI_BENCH_VERBOSE").is_some() {
         for engine in Engine::ALL {
-            for line in &family.tallies[&engine].wrong {
+            for line in &family.tallies[&engine].scores.wrong {
                 let _ = writeln!(out, "    {} {line}", engine.name());
             }
         }

@@ -27,7 +27,7 @@
 //!   `RoundShape<ConvexPolyhedron>` when rounded.
 //!
 //! Each result is scored against the reference of the model it follows by the tests' own
-//! scorer ([`reference_3d::score_reported`], the `f64` reference geometry). A peer's odd output
+//! scorer ([`reference_3d::score_by_rules`], the `f64` reference geometry). A peer's odd output
 //! (an error, a failed status, a fraction that is not a number in `[0, 1]`, a panic) scores
 //! *failed*; it never stops the run.
 //!
@@ -72,10 +72,12 @@ use parry3d::query::{
     cast_shapes, cast_shapes_nonlinear,
 };
 use parry3d::shape::{Ball, Capsule, ConvexPolyhedron, RoundShape, Segment, Shape};
-use reference_3d::{Case, Model, Pair, Reported, SLOP, Verdict, load_cases, score_reported};
+use reference_3d::{
+    Case, Model, Pair, Reference, Reported, SLOP, Verdict, load_cases, score_by_rules,
+};
 use toi_common::{
-    RunMode, fmt_len, fmt_ns, fmt_ratio, guarded, median, median_ns, ratio, target_dir,
-    time_interleaved,
+    Answer, RunMode, Scores, fmt_len, fmt_ns, fmt_ratio, guarded, median, median_ns, ratio,
+    target_dir, time_cases,
 };
 
 /// The families, in the README's order.
@@ -315,31 +317,9 @@ fn call_parry_nonlinear(c: &ParryCase) -> Result<Option<ShapeCastHit>, Unsupport
     )
 }
 
-/// An implementation's result in the README's terms, with its raw form for the verbose list.
-struct Answer {
-    state: Reported,
-    t: f64,
-    raw: String,
-}
-
-/// A reported state with its fraction; a fraction that is not a number in `[0, 1]` makes it
-/// a failure.
-fn answer(state: Reported, t: f32, raw: String) -> Answer {
-    let state = if state != Reported::Failed && !(0.0..=1.0).contains(&t) {
-        Reported::Failed
-    } else {
-        state
-    };
-    Answer {
-        state,
-        t: f64::from(t),
-        raw,
-    }
-}
-
 fn interpret_ours(out: &ToiOutput) -> Answer {
     let raw = format!("{:?} t={} it={}", out.state, out.fraction, out.iterations);
-    answer(out.state.into(), out.fraction, raw)
+    Answer::new(out.state.into(), out.fraction, raw)
 }
 
 fn interpret_parry_sweep(out: &SweepToiOutput) -> Answer {
@@ -350,7 +330,7 @@ fn interpret_parry_sweep(out: &SweepToiOutput) -> Answer {
         SweepToiStatus::Overlapped => Reported::Overlapped,
         SweepToiStatus::Failed => Reported::Failed,
     };
-    answer(state, out.fraction, raw)
+    Answer::new(state, out.fraction, raw)
 }
 
 /// `cast_shapes` and `cast_shapes_nonlinear` answer alike; read as in the 2D bench (a
@@ -358,7 +338,7 @@ fn interpret_parry_sweep(out: &SweepToiOutput) -> Answer {
 /// the distance at `t`).
 fn interpret_parry_cast(out: &Result<Option<ShapeCastHit>, Unsupported>) -> Answer {
     match out {
-        Ok(None) => answer(Reported::Separated, 1.0, "None".into()),
+        Ok(None) => Answer::new(Reported::Separated, 1.0, "None".into()),
         Ok(Some(hit)) => {
             let t = hit.time_of_impact;
             let raw = format!("{:?} t={t}", hit.status);
@@ -366,32 +346,15 @@ fn interpret_parry_cast(out: &Result<Option<ShapeCastHit>, Unsupported>) -> Answ
                 ShapeCastStatus::PenetratingOrWithinTargetDist if t == 0.0 => Reported::Overlapped,
                 _ => Reported::Hit,
             };
-            answer(state, t, raw)
+            Answer::new(state, t, raw)
         }
-        Err(e) => answer(Reported::Failed, 0.0, format!("error: {e:?}")),
+        Err(e) => Answer::new(Reported::Failed, 0.0, format!("error: {e:?}")),
     }
 }
 
 // ---------------------------------------------------------------------------------------------
 // Scoring
 // ---------------------------------------------------------------------------------------------
-
-/// The scores of one implementation on one family.
-#[derive(Default)]
-struct Tally {
-    verdicts: BTreeMap<Verdict, usize>,
-    unsupported: usize,
-    /// `|d(t)|` at every hit (m), the README's accuracy measure.
-    abs_d: Vec<f64>,
-    /// One line per answer that is not correct (printed with `TOI_BENCH_VERBOSE=1`).
-    wrong: Vec<String>,
-}
-
-impl Tally {
-    fn count(&self, verdict: Verdict) -> usize {
-        self.verdicts.get(&verdict).copied().unwrap_or(0)
-    }
-}
 
 /// Every implementation's input for one case; `None` where a peer could not take the case
 /// (scored failed, not timed).
@@ -455,7 +418,7 @@ struct Family {
     verdicts: Vec<BTreeMap<Engine, Option<Verdict>>>,
     /// Per case and implementation: the time per call (ns), hot and interleaved.
     ns: Vec<BTreeMap<Engine, f64>>,
-    tallies: BTreeMap<Engine, Tally>,
+    tallies: BTreeMap<Engine, Scores>,
 }
 
 impl Family {
@@ -467,7 +430,10 @@ impl Family {
             inputs: Vec::with_capacity(cases.len()),
             verdicts: Vec::with_capacity(cases.len()),
             ns: Vec::new(),
-            tallies: Engine::ALL.iter().map(|&e| (e, Tally::default())).collect(),
+            tallies: Engine::ALL
+                .iter()
+                .map(|&e| (e, Scores::default()))
+                .collect(),
             cases,
         };
         for i in 0..family.cases.len() {
@@ -487,13 +453,15 @@ impl Family {
             let mut verdicts = BTreeMap::new();
             for engine in Engine::ALL {
                 let tally = family.tallies.get_mut(&engine).expect("a tally per engine");
+                let model = engine.model();
                 let verdict = match guarded(|| inputs.answer(engine)).flatten() {
                     None => {
-                        *tally.verdicts.entry(Verdict::Failed).or_default() += 1;
-                        tally.wrong.push(format!("{} not run", case.id));
+                        tally.add_not_run(&case.id, "no input, or panicked");
                         None
                     }
-                    Some(answer) => score(tally, case, &pair, engine.model(), &answer),
+                    Some(answer) => tally.add(&case.id, case.reference(model), &answer, |s| {
+                        pair.distance_at_model(model, s)
+                    }),
                 };
                 verdicts.insert(engine, verdict);
             }
@@ -517,42 +485,14 @@ impl Family {
 
     /// Times every case on its own, the implementations interleaved.
     fn time(&mut self, rounds: usize) {
-        self.ns = self
-            .inputs
-            .iter()
-            .map(|inputs| {
-                let engines: Vec<Engine> =
-                    Engine::ALL.into_iter().filter(|&e| inputs.has(e)).collect();
-                let ns = time_interleaved(&engines, rounds, |e| inputs.call(e));
-                engines.into_iter().zip(ns).collect()
-            })
-            .collect();
+        self.ns = time_cases(
+            &self.inputs,
+            &Engine::ALL,
+            rounds,
+            Inputs::has,
+            Inputs::call,
+        );
     }
-}
-
-/// Scores an answer into the tally; its verdict (`None`: unsupported).
-fn score(tally: &mut Tally, case: &Case, pair: &Pair, model: Model, a: &Answer) -> Option<Verdict> {
-    let Some(r) = case.reference(model) else {
-        tally.unsupported += 1;
-        return None;
-    };
-    let (verdict, d) = score_reported(pair, model, r, a.state, a.t);
-    *tally.verdicts.entry(verdict).or_default() += 1;
-    if let (Some(d), Reported::Hit) = (d, a.state) {
-        tally.abs_d.push(d.abs());
-    }
-    if verdict != Verdict::Correct {
-        tally.wrong.push(format!(
-            "{} {verdict:?}: {} d(t)={} | t_touch={:?} min_dist={:.3e} d0={:.3e}",
-            case.id,
-            a.raw,
-            d.map_or_else(|| "-".into(), |d| format!("{d:.3e}")),
-            r.t_touch,
-            r.min_dist,
-            r.d0,
-        ));
-    }
-    Some(verdict)
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -1,10 +1,17 @@
 //! What the 2D and 3D time-of-impact benches share: how the binary was invoked, where the
-//! target directory is, per-case interleaved timing, medians and the table's cells.
+//! target directory is, an implementation's answer and its scores by the oracle's rules,
+//! per-case interleaved timing, medians and the table's cells.
+//!
+//! Each bench names its oracle's [`Reference`], [`Reported`], [`Verdict`] and
+//! [`score_by_rules`] at its root (`tests/support/scoring.rs`, reached through the oracle of
+//! its dimension).
 
 use std::collections::BTreeMap;
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
+
+use crate::{Reference, Reported, Verdict, score_by_rules};
 
 /// How the binary was invoked, mirroring criterion's own reading of the arguments.
 pub struct RunMode {
@@ -55,6 +62,96 @@ pub fn guarded<T>(f: impl FnOnce() -> T) -> Option<T> {
     catch_unwind(AssertUnwindSafe(f)).ok()
 }
 
+/// An implementation's result in the README's terms, with its raw form for the verbose list.
+pub struct Answer {
+    pub state: Reported,
+    pub t: f64,
+    pub raw: String,
+    /// The implementation flagged the answer as unreliable but still gave it (parry's
+    /// `ShapeCastStatus::Failed`, read as a hit).
+    pub flagged: bool,
+}
+
+impl Answer {
+    /// A reported state with its fraction; a fraction that is not a number in `[0, 1]` makes
+    /// it a failure.
+    pub fn new(state: Reported, t: f32, raw: String) -> Self {
+        let (state, t) = if state != Reported::Failed && !(0.0..=1.0).contains(&t) {
+            (Reported::Failed, 0.0)
+        } else {
+            (state, f64::from(t))
+        };
+        Answer {
+            state,
+            t,
+            raw,
+            flagged: false,
+        }
+    }
+}
+
+/// The scores of one implementation on one family.
+#[derive(Default)]
+pub struct Scores {
+    pub verdicts: BTreeMap<Verdict, usize>,
+    pub unsupported: usize,
+    /// Cases it could not be run on (input rejected while building, or a panic): scored
+    /// failed and left out of the timing.
+    pub not_run: usize,
+    /// `|d(t)|` at every hit (m), the README's accuracy measure.
+    pub abs_d: Vec<f64>,
+    /// Answers the implementation flagged as unreliable (see [`Answer::flagged`]).
+    pub flagged: usize,
+    /// One line per answer that is not correct (printed with `TOI_BENCH_VERBOSE=1`).
+    pub wrong: Vec<String>,
+}
+
+impl Scores {
+    /// Scores an answer to case `id` by the README's rules against the reference of the model
+    /// it follows (`None`: the case has none, *unsupported*), `distance_at(s)` the true
+    /// surface distance at `s` under that model; returns its verdict (`None`: unsupported).
+    pub fn add(
+        &mut self,
+        id: &str,
+        reference: Option<&Reference>,
+        answer: &Answer,
+        distance_at: impl Fn(f64) -> f64,
+    ) -> Option<Verdict> {
+        self.flagged += usize::from(answer.flagged);
+        let Some(r) = reference else {
+            self.unsupported += 1;
+            return None;
+        };
+        let (verdict, d) = score_by_rules(r, answer.state, answer.t, distance_at);
+        *self.verdicts.entry(verdict).or_default() += 1;
+        if let (Some(d), Reported::Hit) = (d, answer.state) {
+            self.abs_d.push(d.abs());
+        }
+        if verdict != Verdict::Correct {
+            self.wrong.push(format!(
+                "{id} {verdict:?}: {} d(t)={} | t_touch={:?} min_dist={:.3e} d0={:.3e}",
+                answer.raw,
+                d.map_or_else(|| "-".into(), |d| format!("{d:.3e}")),
+                r.t_touch,
+                r.min_dist,
+                r.d0,
+            ));
+        }
+        Some(verdict)
+    }
+
+    /// A case the implementation could not be run on: failed, and not timed.
+    pub fn add_not_run(&mut self, id: &str, why: &str) {
+        self.not_run += 1;
+        *self.verdicts.entry(Verdict::Failed).or_default() += 1;
+        self.wrong.push(format!("{id} not run: {why}"));
+    }
+
+    pub fn count(&self, verdict: Verdict) -> usize {
+        self.verdicts.get(&verdict).copied().unwrap_or(0)
+    }
+}
+
 /// How long one timed batch of calls should take: long enough that reading the clock is a
 /// small part of it, short enough that a batch rarely straddles a preemption.
 const BATCH: Duration = Duration::from_micros(4);
@@ -88,6 +185,25 @@ pub fn time_interleaved<E: Copy>(engines: &[E], rounds: usize, call: impl Fn(E))
     times
         .iter()
         .map(|t| median(t).unwrap_or(f64::NAN))
+        .collect()
+}
+
+/// Times every case on its own (see [`time_interleaved`]), through the implementations
+/// of `engines` that can take it (`has`): per case, each one's time per call (ns).
+pub fn time_cases<I, E: Copy + Ord>(
+    inputs: &[I],
+    engines: &[E],
+    rounds: usize,
+    has: impl Fn(&I, E) -> bool,
+    call: impl Fn(&I, E),
+) -> Vec<BTreeMap<E, f64>> {
+    inputs
+        .iter()
+        .map(|input| {
+            let engines: Vec<E> = engines.iter().copied().filter(|&e| has(input, e)).collect();
+            let ns = time_interleaved(&engines, rounds, |e| call(input, e));
+            engines.into_iter().zip(ns).collect()
+        })
         .collect()
 }
 

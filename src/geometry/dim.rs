@@ -16,7 +16,7 @@
 use core::fmt::Debug;
 use core::ops::{Add, AddAssign, Div, Mul, Neg, Sub, SubAssign};
 
-use glam::{Quat, Vec2, Vec3};
+use glam::{DVec2, DVec3, Quat, Vec2, Vec3};
 
 /// The vector arithmetic the shared algorithms do, in either dimension: each method is the
 /// glam method of the same name (the same operations in the same order, hence the same bits).
@@ -61,6 +61,37 @@ pub trait Vector:
     /// coordinate, `cross(a, b)`).
     fn cross_length_squared(self, other: Self) -> f32;
 }
+
+/// The `f64` vector arithmetic of the exact ray entries (`query::entry`), in either
+/// dimension: each method is the glam method of the same name.
+pub(crate) trait ExactVector:
+    Copy + Add<Output = Self> + Sub<Output = Self> + Mul<f64, Output = Self> + Div<f64, Output = Self>
+{
+    /// The zero vector.
+    const ZERO: Self;
+
+    fn dot(self, other: Self) -> f64;
+    fn length_squared(self) -> f64;
+}
+
+macro_rules! exact_vector {
+    ($v:ty) => {
+        impl ExactVector for $v {
+            const ZERO: Self = <$v>::ZERO;
+            #[inline(always)]
+            fn dot(self, other: Self) -> f64 {
+                <$v>::dot(self, other)
+            }
+            #[inline(always)]
+            fn length_squared(self) -> f64 {
+                <$v>::length_squared(self)
+            }
+        }
+    };
+}
+
+exact_vector!(DVec2);
+exact_vector!(DVec3);
 
 /// A rotation: what the shared code does with one.
 pub trait Rotation<V>: Copy + Debug + PartialEq + Send + Sync + 'static {

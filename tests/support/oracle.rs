@@ -5,17 +5,18 @@
 //! model (or the nlerp model of Box2D's sweeps) with the reference geometry of
 //! `reference.rs`, exact for convex cores, and classifies the answer as the README prescribes.
 
-use bevy_ccd::geometry::{ShapeProxy, Sweep, ToiInput, ToiOutput, ToiState};
+use bevy_ccd::geometry::{ShapeProxy, Sweep, ToiInput, ToiOutput};
 use bevy_ccd_fixtures::SceneRng;
 use glam::Vec2;
 use serde::Deserialize;
 
 use super::reference::{Core, P, PoseD, center_at, core_distance, pose_at, to_p};
 
-/// The linear slop the cases are scored with (m).
-pub const SLOP: f64 = 0.005;
-/// Single-precision rounding level (m) used by the scoring rules.
-pub const EPS: f64 = 1e-5;
+#[path = "scoring.rs"]
+mod scoring;
+// Each includer uses its own part of these.
+#[allow(unused_imports)]
+pub use scoring::{EPS, Model, Oracle, Reference, Reported, SLOP, Verdict, score_by_rules};
 
 #[derive(Deserialize, Clone, Debug)]
 pub struct ShapeJson {
@@ -32,39 +33,12 @@ pub struct SweepJson {
     pub a1: f32,
 }
 
-#[derive(Deserialize, Clone, Debug)]
-pub struct Reference {
-    pub t_touch: Option<f64>,
-    pub min_dist: f64,
-    pub t_min: f64,
-    pub d0: f64,
-    pub d1: f64,
-}
-
-#[derive(Deserialize, Clone, Debug)]
-pub struct Oracle {
-    pub angle: Reference,
-    pub nlerp: Option<Reference>,
-}
-
-#[derive(Deserialize, Clone, Debug)]
-pub struct Case {
-    pub id: String,
-    pub family: String,
-    pub a: ShapeJson,
-    pub b: ShapeJson,
-    pub sweep_a: SweepJson,
-    pub sweep_b: SweepJson,
-    pub oracle: Oracle,
-}
+/// A case of the plane's oracle.
+pub type Case = scoring::Case<ShapeJson, SweepJson>;
 
 pub fn load_cases() -> Vec<Case> {
     // Read at compile time, relative to this file: the benches include it from another package.
-    let text = include_str!("../data/toi-cases.jsonl");
-    text.lines()
-        .filter(|l| !l.trim().is_empty())
-        .map(|l| serde_json::from_str(l).unwrap())
-        .collect()
+    scoring::parse_cases(include_str!("../data/toi-cases.jsonl"))
 }
 
 pub fn v(p: [f32; 2]) -> Vec2 {
@@ -110,97 +84,18 @@ impl Case {
     pub fn distance_at(&self, t: f64) -> f64 {
         self.distance_at_model(Model::Angle, t)
     }
-}
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub enum Verdict {
-    Correct,
-    Miss,
-    Late,
-    Early,
-    Ghost,
-    Failed,
-}
-
-/// Scores one result against the angle-model reference. Returns the verdict and, for hits,
-/// the true surface distance at the reported fraction.
-pub fn score(case: &Case, out: &ToiOutput) -> (Verdict, Option<f64>) {
-    score_state(case, out.state, out.fraction as f64)
-}
-
-pub fn score_state(case: &Case, state: ToiState, t: f64) -> (Verdict, Option<f64>) {
-    let r = &case.oracle.angle;
-    match state {
-        ToiState::Failed(_) => (Verdict::Failed, None),
-        ToiState::Separated => {
-            if r.min_dist >= -EPS {
-                (Verdict::Correct, None)
-            } else {
-                (Verdict::Miss, None)
-            }
-        }
-        ToiState::Overlapped => {
-            let d = case.distance_at(t);
-            if d <= EPS {
-                (Verdict::Correct, Some(d))
-            } else if r.min_dist > 4.0 * SLOP {
-                (Verdict::Ghost, Some(d))
-            } else {
-                (Verdict::Early, Some(d))
-            }
-        }
-        ToiState::Hit => {
-            let d = case.distance_at(t);
-            if r.min_dist > 4.0 * SLOP {
-                return (Verdict::Ghost, Some(d));
-            }
-            if d > 4.0 * SLOP {
-                return (Verdict::Early, Some(d));
-            }
-            if d < -2.0 * SLOP {
-                return (Verdict::Miss, Some(d));
-            }
-            if let Some(tt) = r.t_touch
-                && t > tt
-            {
-                // Tunnelled through a deeper penetration between first contact and t?
-                let n = 400;
-                for i in 0..=n {
-                    let s = tt + (t - tt) * i as f64 / n as f64;
-                    if case.distance_at(s) < -2.0 * SLOP {
-                        return (Verdict::Miss, Some(d));
-                    }
-                }
-            }
-            if d < -EPS {
-                (Verdict::Late, Some(d))
-            } else {
-                (Verdict::Correct, Some(d))
-            }
-        }
+    /// Surface distance at `t` under the given model: positive apart, minus the depth when
+    /// overlapping.
+    pub fn distance_at_model(&self, model: Model, t: f64) -> f64 {
+        let (a, b) = (self.a.core(), self.b.core());
+        let xa = model.pose_at(&self.sweep_a.sweep(), t);
+        let xb = model.pose_at(&self.sweep_b.sweep(), t);
+        core_distance(&a, &xa, &b, &xb) - a.radius - b.radius
     }
-}
-
-/// The rotation model a result follows (README, "Motion").
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub enum Model {
-    /// `R(t)` is the rotation by `a0 + t (a1 - a0)`: constant angular velocity, any number of
-    /// turns. Ours and parry follow it.
-    Angle,
-    /// `R(t)` is the rotation whose (cos, sin) is
-    /// `normalize((1 - t)(cos a0, sin a0) + t (cos a1, sin a1))`. Box2D's `b2Sweep` follows it.
-    Nlerp,
 }
 
 impl Model {
-    /// The name the README uses.
-    pub fn name(self) -> &'static str {
-        match self {
-            Model::Angle => "angle",
-            Model::Nlerp => "nlerp",
-        }
-    }
-
     /// The body pose at `t` under this model, in f64.
     pub fn pose_at(self, sweep: &Sweep, t: f64) -> PoseD {
         match self {
@@ -209,27 +104,6 @@ impl Model {
                 let (c, s) = nlerp_rotation(sweep.a0 as f64, sweep.a1 as f64, t);
                 PoseD::about_center(c, s, center_at(sweep, t), to_p(sweep.local_center))
             }
-        }
-    }
-}
-
-/// The state of a result in the README's implementation-neutral terms, so results of other
-/// engines can be scored as well as ours.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Reported {
-    Hit,
-    Separated,
-    Overlapped,
-    Failed,
-}
-
-impl From<ToiState> for Reported {
-    fn from(state: ToiState) -> Self {
-        match state {
-            ToiState::Hit => Reported::Hit,
-            ToiState::Separated => Reported::Separated,
-            ToiState::Overlapped => Reported::Overlapped,
-            ToiState::Failed(_) => Reported::Failed,
         }
     }
 }
@@ -250,29 +124,8 @@ pub fn nlerp_rotation(a0: f64, a1: f64, t: f64) -> (f64, f64) {
     }
 }
 
-impl Case {
-    /// The reference answer of a model; `None` for nlerp when the case turns by pi or more.
-    pub fn reference(&self, model: Model) -> Option<&Reference> {
-        match model {
-            Model::Angle => Some(&self.oracle.angle),
-            Model::Nlerp => self.oracle.nlerp.as_ref(),
-        }
-    }
-
-    /// Surface distance at `t` under the given model: positive apart, minus the depth when
-    /// overlapping.
-    pub fn distance_at_model(&self, model: Model, t: f64) -> f64 {
-        let (a, b) = (self.a.core(), self.b.core());
-        let xa = model.pose_at(&self.sweep_a.sweep(), t);
-        let xb = model.pose_at(&self.sweep_b.sweep(), t);
-        core_distance(&a, &xa, &b, &xb) - a.radius - b.radius
-    }
-}
-
 /// Scores a result of any implementation against the reference of the model it follows, by
-/// every rule of the README (`score_state` is the angle-model scorer `tests/oracle.rs` uses;
-/// this one adds the nlerp model and the README's rule that a hit at `t = 0` is correct when
-/// the shapes touch at `t = 0`, which `score_state` does not need for our outputs).
+/// every rule of the README, the distance evaluated under that model.
 ///
 /// Returns `None` (*unsupported*) for an nlerp result on a case without an nlerp reference;
 /// otherwise the verdict and, for hits and overlaps, the true surface distance at `t`.
@@ -283,60 +136,17 @@ pub fn score_model(
     t: f64,
 ) -> Option<(Verdict, Option<f64>)> {
     let r = case.reference(model)?;
-    let d_at = |s: f64| case.distance_at_model(model, s);
-    Some(match state {
-        Reported::Failed => (Verdict::Failed, None),
-        Reported::Separated => {
-            if r.min_dist >= -EPS {
-                (Verdict::Correct, None)
-            } else {
-                (Verdict::Miss, None)
-            }
-        }
-        Reported::Overlapped => {
-            let d = d_at(t);
-            if d <= EPS {
-                (Verdict::Correct, Some(d))
-            } else if r.min_dist > 4.0 * SLOP {
-                (Verdict::Ghost, Some(d))
-            } else {
-                (Verdict::Early, Some(d))
-            }
-        }
-        Reported::Hit => {
-            let d = d_at(t);
-            if t == 0.0 && r.d0 <= EPS {
-                // Touching (or overlapping) at the start and reported so.
-                return Some((Verdict::Correct, Some(d)));
-            }
-            if r.min_dist > 4.0 * SLOP {
-                return Some((Verdict::Ghost, Some(d)));
-            }
-            if d > 4.0 * SLOP {
-                return Some((Verdict::Early, Some(d)));
-            }
-            if d < -2.0 * SLOP {
-                return Some((Verdict::Miss, Some(d)));
-            }
-            if let Some(tt) = r.t_touch
-                && t > tt
-            {
-                // Tunnelled through a deeper penetration between first contact and t?
-                let n = 400;
-                for i in 0..=n {
-                    let s = tt + (t - tt) * i as f64 / n as f64;
-                    if d_at(s) < -2.0 * SLOP {
-                        return Some((Verdict::Miss, Some(d)));
-                    }
-                }
-            }
-            if d < -EPS {
-                (Verdict::Late, Some(d))
-            } else {
-                (Verdict::Correct, Some(d))
-            }
-        }
-    })
+    Some(scoring::score_by_rules(r, state, t, |s| {
+        case.distance_at_model(model, s)
+    }))
+}
+
+/// Scores one of our results against the angle-model reference by the README's rules.
+/// Returns the verdict and, for hits and overlaps, the true surface distance at the reported
+/// fraction.
+pub fn score(case: &Case, out: &ToiOutput) -> (Verdict, Option<f64>) {
+    score_model(case, Model::Angle, out.state.into(), out.fraction as f64)
+        .expect("every case has an angle-model reference")
 }
 
 // ---------------------------------------------------------------------------------------------

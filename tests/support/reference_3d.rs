@@ -9,23 +9,24 @@
 //!   disjoint, minus the penetration depth by the separating axis test over the face normals
 //!   of both and the cross products of their edges when they overlap (complete for convex
 //!   polyhedra; two cores of one or two points never overlap by a positive depth);
-//! * the scoring rules of the shared 3D oracle (`shared/toi-cases-3d/README.md`), under
-//!   either of its rotation models ([`Model`]), for ours and for other engines' results.
+//! * the shared 3D oracle's cases (`shared/toi-cases-3d/README.md`) and their scoring under
+//!   either of its rotation models ([`Model`]), for ours and for other engines' results, by
+//!   the rules the plane's oracle shares (`scoring.rs`).
 //!
 //! Included with `#[path]` by the 3D tests and the 3D time-of-impact bench only, so the 2D
 //! test binaries do not build it.
 
 #![allow(dead_code)]
 
-use bevy_ccd::geometry::ToiState;
 use bevy_ccd::geometry::d3::{ShapeProxy, Sweep, ToiInput, ToiOutput};
 use glam::{DQuat, DVec3, Quat, Vec3};
 use serde::Deserialize;
 
-/// The linear slop the cases are scored with (m).
-pub const SLOP: f64 = 0.005;
-/// Single-precision rounding level (m) used by the scoring rules.
-pub const EPS: f64 = 1e-5;
+#[path = "scoring.rs"]
+mod scoring;
+// Each includer uses its own part of these.
+#[allow(unused_imports)]
+pub use scoring::{EPS, Model, Oracle, Reference, Reported, SLOP, Verdict, score_by_rules};
 
 /// A core (convex hull of points) in its local frame, in `f64`.
 #[derive(Clone, Debug)]
@@ -153,27 +154,6 @@ impl Body {
                 let q1 = if self.q0.dot(q1) < 0.0 { -q1 } else { q1 };
                 (self.q0 * (1.0 - t) + q1 * t).normalize()
             }
-        }
-    }
-}
-
-/// The rotation model a result follows (README, "Motion").
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub enum Model {
-    /// Constant angular velocity `w` about a fixed world axis, any number of turns: ours and
-    /// parry's `cast_shapes_nonlinear`.
-    Angle,
-    /// The normalised blend of the start and end quaternions: Box2D's `b2Sweep` and parry's
-    /// port of it (`sweep_time_of_impact`). Defined by the oracle only below half a turn.
-    Nlerp,
-}
-
-impl Model {
-    /// The name the README uses.
-    pub fn name(self) -> &'static str {
-        match self {
-            Model::Angle => "angle",
-            Model::Nlerp => "nlerp",
         }
     }
 }
@@ -364,7 +344,7 @@ impl Pair {
 }
 
 // ---------------------------------------------------------------------------------------------
-// The shared oracle's cases and scoring rules
+// The shared oracle's cases, scored by the rules of `scoring.rs`
 // ---------------------------------------------------------------------------------------------
 
 #[derive(Deserialize, Clone, Debug)]
@@ -382,39 +362,11 @@ pub struct SweepJson {
     pub w: [f32; 3],
 }
 
-#[derive(Deserialize, Clone, Debug)]
-pub struct Reference {
-    pub t_touch: Option<f64>,
-    pub min_dist: f64,
-    pub t_min: f64,
-    pub d0: f64,
-    pub d1: f64,
-}
-
-#[derive(Deserialize, Clone, Debug)]
-pub struct Oracle {
-    pub angle: Reference,
-    /// `None` when either body turns by half a turn or more.
-    pub nlerp: Option<Reference>,
-}
-
-#[derive(Deserialize, Clone, Debug)]
-pub struct Case {
-    pub id: String,
-    pub family: String,
-    pub a: ShapeJson,
-    pub b: ShapeJson,
-    pub sweep_a: SweepJson,
-    pub sweep_b: SweepJson,
-    pub oracle: Oracle,
-}
+/// A case of the oracle in space.
+pub type Case = scoring::Case<ShapeJson, SweepJson>;
 
 pub fn load_cases() -> Vec<Case> {
-    let text = include_str!("../data/toi-cases-3d.jsonl");
-    text.lines()
-        .filter(|l| !l.trim().is_empty())
-        .map(|l| serde_json::from_str(l).unwrap())
-        .collect()
+    scoring::parse_cases(include_str!("../data/toi-cases-3d.jsonl"))
 }
 
 fn v(p: [f32; 3]) -> Vec3 {
@@ -442,14 +394,6 @@ impl SweepJson {
 }
 
 impl Case {
-    /// The reference answer of a model; `None` for nlerp when a body turns by pi or more.
-    pub fn reference(&self, model: Model) -> Option<&Reference> {
-        match model {
-            Model::Angle => Some(&self.oracle.angle),
-            Model::Nlerp => self.oracle.nlerp.as_ref(),
-        }
-    }
-
     pub fn input(&self) -> ToiInput {
         ToiInput::new(
             self.a.proxy(),
@@ -460,117 +404,10 @@ impl Case {
     }
 }
 
-/// The README's verdicts.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub enum Verdict {
-    Correct,
-    Miss,
-    Late,
-    Early,
-    Ghost,
-    Failed,
-}
-
-impl Verdict {
-    /// Every verdict, in the README's order (a table's columns).
-    pub const ALL: [Verdict; 6] = [
-        Verdict::Correct,
-        Verdict::Miss,
-        Verdict::Late,
-        Verdict::Early,
-        Verdict::Ghost,
-        Verdict::Failed,
-    ];
-}
-
-/// The state of a result in the README's implementation-neutral terms, so other engines'
-/// results are scored by the same rules as ours.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Reported {
-    Hit,
-    Separated,
-    Overlapped,
-    Failed,
-}
-
-impl From<ToiState> for Reported {
-    fn from(state: ToiState) -> Self {
-        match state {
-            ToiState::Hit => Reported::Hit,
-            ToiState::Separated => Reported::Separated,
-            ToiState::Overlapped => Reported::Overlapped,
-            ToiState::Failed(_) => Reported::Failed,
-        }
-    }
-}
-
 /// Scores one of our results by the README's rules against the angle-model reference `r`,
 /// with the distance evaluated at the reported fraction by `pair`. Returns the verdict and,
 /// for hits and overlaps, the true surface distance there.
 pub fn score(pair: &Pair, r: &Reference, out: &ToiOutput) -> (Verdict, Option<f64>) {
-    score_reported(pair, Model::Angle, r, out.state.into(), out.fraction as f64)
-}
-
-/// Scores a result of any implementation by the README's rules against the reference `r` of
-/// the model it follows, the distance evaluated under that model.
-pub fn score_reported(
-    pair: &Pair,
-    model: Model,
-    r: &Reference,
-    state: Reported,
-    t: f64,
-) -> (Verdict, Option<f64>) {
-    let d_at = |s: f64| pair.distance_at_model(model, s);
-    match state {
-        Reported::Failed => (Verdict::Failed, None),
-        Reported::Separated => {
-            if r.min_dist >= -EPS {
-                (Verdict::Correct, None)
-            } else {
-                (Verdict::Miss, None)
-            }
-        }
-        Reported::Overlapped => {
-            let d = d_at(t);
-            if d <= EPS {
-                (Verdict::Correct, Some(d))
-            } else if r.min_dist > 4.0 * SLOP {
-                (Verdict::Ghost, Some(d))
-            } else {
-                (Verdict::Early, Some(d))
-            }
-        }
-        Reported::Hit => {
-            let d = d_at(t);
-            if t == 0.0 && r.d0 <= EPS {
-                return (Verdict::Correct, Some(d));
-            }
-            if r.min_dist > 4.0 * SLOP {
-                return (Verdict::Ghost, Some(d));
-            }
-            if d > 4.0 * SLOP {
-                return (Verdict::Early, Some(d));
-            }
-            if d < -2.0 * SLOP {
-                return (Verdict::Miss, Some(d));
-            }
-            if let Some(tt) = r.t_touch
-                && t > tt
-            {
-                // Tunnelled through a deeper penetration between first contact and t?
-                let n = 400;
-                for i in 0..=n {
-                    let s = tt + (t - tt) * i as f64 / n as f64;
-                    if d_at(s) < -2.0 * SLOP {
-                        return (Verdict::Miss, Some(d));
-                    }
-                }
-            }
-            if d < -EPS {
-                (Verdict::Late, Some(d))
-            } else {
-                (Verdict::Correct, Some(d))
-            }
-        }
-    }
+    let distance_at = |s| pair.distance_at_model(Model::Angle, s);
+    score_by_rules(r, out.state.into(), out.fraction as f64, distance_at)
 }

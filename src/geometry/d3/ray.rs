@@ -23,6 +23,7 @@ use super::shape::{Aabb, Pose, Shape};
 use crate::geometry::bvh::Bvh;
 use crate::geometry::constants::MAX_WORLD_COORDINATE;
 use crate::geometry::query::cast::{CastError, sort_by_fraction};
+use crate::geometry::query::entry::{Clip, ball_entry};
 
 /// One static shape of a [`StaticSet`]: its shape, where it is and the layers it is on.
 ///
@@ -449,29 +450,6 @@ impl Checked {
     }
 }
 
-/// Entry into the ball of radius `r` about `c` along the unit `d`: the smaller root of
-/// `|m + s d|² = r²`, `m = o - c`, solved about the closest approach as in the plane's
-/// `disc_entry` (Haines et al., "Precision Improvements for Ray/Sphere Intersection"): the
-/// squared offset of the line from the centre from the vector across the ray, and the root
-/// as `k / (-b + h)`.
-fn ball_entry(o: DVec3, d: DVec3, max: f64, c: DVec3, r: f64) -> Option<(f64, DVec3)> {
-    let m = o - c;
-    let k = m.length_squared() - r * r;
-    if k <= 0.0 {
-        return Some((0.0, DVec3::ZERO));
-    }
-    let b = m.dot(d);
-    if b >= 0.0 {
-        return None;
-    }
-    let h2 = r * r - (m - b * d).length_squared();
-    if h2 < 0.0 {
-        return None;
-    }
-    let s = k / (-b + h2.sqrt());
-    (s <= max).then(|| (s, (m + s * d) / r))
-}
-
 /// Entry into the side of the cylinder of radius `r` about the segment `a b`, between its
 /// ends (its caps lie inside the balls at the ends). With the axis' unit `u`, the parts of `m
 /// = o - a` and `d` across it, `m'` and `d'`: `|m' + s d'|² = r²`, i.e. `A s² + 2 B s + k = 0`
@@ -550,41 +528,4 @@ fn slab_entry(
         }
     }
     (clip.enter == 0.0 || clip.normal == n).then_some((clip.enter, clip.normal))
-}
-
-/// A Cyrus-Beck clip of the ray's interval `[enter, exit]` by half-spaces.
-struct Clip {
-    enter: f64,
-    exit: f64,
-    /// The normal of the plane the ray enters last (zero while `enter` is 0).
-    normal: DVec3,
-}
-
-impl Clip {
-    fn new(max: f64) -> Self {
-        Self {
-            enter: 0.0,
-            exit: max,
-            normal: DVec3::ZERO,
-        }
-    }
-
-    /// Clips by `n·x <= offset`, i.e. `s (n·d) <= offset - n·o`; whether the interval is still
-    /// non-empty.
-    fn side(&mut self, o: DVec3, d: DVec3, n: DVec3, offset: f64) -> bool {
-        let (num, den) = (offset - n.dot(o), n.dot(d));
-        if den == 0.0 {
-            return num >= 0.0;
-        }
-        let s = num / den;
-        if den < 0.0 {
-            if s > self.enter {
-                self.enter = s;
-                self.normal = n;
-            }
-        } else if s < self.exit {
-            self.exit = s;
-        }
-        self.enter <= self.exit
-    }
 }

@@ -2,6 +2,7 @@
 //! static world.
 
 pub(crate) mod cast;
+pub(crate) mod entry;
 pub(crate) mod gjk;
 pub(crate) mod ray;
 pub(crate) mod toi;

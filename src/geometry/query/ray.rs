@@ -18,6 +18,7 @@
 
 use glam::{DVec2, Vec2};
 
+use super::entry::{Clip, ball_entry};
 use crate::geometry::math::Pose;
 use crate::geometry::shape::proxy::ShapeProxy;
 
@@ -91,7 +92,7 @@ pub(crate) fn entry_distance(
     };
     let point = |i: usize| points[i].as_dvec2();
     match points.len() {
-        1 => take(disc_entry(o, d, max_distance, point(0), r)),
+        1 => take(ball_entry(o, d, max_distance, point(0), r)),
         n => {
             if n >= 3 || r == 0.0 {
                 take(hull_entry(o, d, max_distance, points));
@@ -99,7 +100,7 @@ pub(crate) fn entry_distance(
             if r > 0.0 {
                 for i in 0..n {
                     let a = point(i);
-                    take(disc_entry(o, d, max_distance, a, r));
+                    take(ball_entry(o, d, max_distance, a, r));
                     // A segment has one edge, walked both ways: one rectangle.
                     if n == 2 && i == 1 {
                         break;
@@ -115,43 +116,16 @@ pub(crate) fn entry_distance(
     })
 }
 
-/// Entry into the disc of radius `r` about `c` along the unit `d`: the smaller root of
-/// `|m + s d|² = r²`, `m = o - c`, i.e. `s² + 2 s b + k = 0` with `b = m·d`, `k = |m|² - r²`.
-///
-/// Solved about the closest approach, as in Haines et al., "Precision Improvements for
-/// Ray/Sphere Intersection" (Ray Tracing Gems, 2019): the half-chord `h` has
-/// `h² = r² - |m - b d|²`, the squared offset of the line from the centre taken from the
-/// vector across the ray rather than as `b² - k` (which cancels for a far disc), and the root
-/// is `s = k / (-b + h)` (not `-b - h`, which cancels for an origin near the surface).
-fn disc_entry(o: DVec2, d: DVec2, max: f64, c: DVec2, r: f64) -> Option<(f64, DVec2)> {
-    let m = o - c;
-    let k = m.length_squared() - r * r;
-    if k <= 0.0 {
-        return Some((0.0, DVec2::ZERO));
-    }
-    let b = m.dot(d);
-    // Moving away, or the line passes outside.
-    if b >= 0.0 {
-        return None;
-    }
-    let h2 = r * r - (m - b * d).length_squared();
-    if h2 < 0.0 {
-        return None;
-    }
-    let s = k / (-b + h2.sqrt());
-    (s <= max).then(|| (s, (m + s * d) / r))
-}
-
 /// Entry into the rectangle a distance `r` about the segment `a b` (with `a != b`): its two
 /// long sides and the two ends' half-planes, clipped as in [`hull_entry`].
 fn edge_entry(o: DVec2, d: DVec2, max: f64, a: DVec2, b: DVec2, r: f64) -> Option<(f64, DVec2)> {
     let along = (b - a).normalize_or_zero();
     let side = DVec2::new(along.y, -along.x);
     let mut clip = Clip::new(max);
-    let inside = clip.side(o, d, side, a, r)
-        && clip.side(o, d, -side, a, r)
-        && clip.side(o, d, -along, a, 0.0)
-        && clip.side(o, d, along, b, 0.0);
+    let inside = clip.side(o - a, d, side, r)
+        && clip.side(o - a, d, -side, r)
+        && clip.side(o - a, d, -along, 0.0)
+        && clip.side(o - b, d, along, 0.0);
     inside.then_some((clip.enter, clip.normal))
 }
 
@@ -171,48 +145,11 @@ fn hull_entry(o: DVec2, d: DVec2, max: f64, points: &[Vec2]) -> Option<(f64, DVe
         let v = points[i].as_dvec2();
         let e = points[(i + 1) % n].as_dvec2() - v;
         // Outward for a counter-clockwise polygon.
-        if !clip.side(o, d, DVec2::new(e.y, -e.x), v, 0.0) {
+        if !clip.side(o - v, d, DVec2::new(e.y, -e.x), 0.0) {
             return None;
         }
     }
     Some((clip.enter, clip.normal.normalize_or_zero()))
-}
-
-/// A Cyrus-Beck clip of the ray's interval `[enter, exit]` by half-planes.
-struct Clip {
-    enter: f64,
-    exit: f64,
-    /// The normal of the side the ray enters last (zero while `enter` is 0).
-    normal: DVec2,
-}
-
-impl Clip {
-    fn new(max: f64) -> Self {
-        Self {
-            enter: 0.0,
-            exit: max,
-            normal: DVec2::ZERO,
-        }
-    }
-
-    /// Clips by `n·(x - v) <= offset`, i.e. `s (n·d) <= offset - n·(o - v)`; whether the
-    /// interval is still non-empty.
-    fn side(&mut self, o: DVec2, d: DVec2, n: DVec2, v: DVec2, offset: f64) -> bool {
-        let (num, den) = (offset - n.dot(o - v), n.dot(d));
-        if den == 0.0 {
-            return num >= 0.0;
-        }
-        let s = num / den;
-        if den < 0.0 {
-            if s > self.enter {
-                self.enter = s;
-                self.normal = n;
-            }
-        } else if s < self.exit {
-            self.exit = s;
-        }
-        self.enter <= self.exit
-    }
 }
 
 #[cfg(test)]
