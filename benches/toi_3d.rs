@@ -48,7 +48,9 @@
 //! `TOI_BENCH_FAMILIES=spinning,bullet` runs only those families; `TOI_BENCH_VERBOSE=1` lists
 //! every answer that is not correct; `TOI_BENCH_PROFILE=n` skips the timing and calls every
 //! implementation `n` more times a case (each through its own never-inlined `call_*`
-//! function, for `valgrind --tool=callgrind --toggle-collect='toi_3d::call_ours'`).
+//! function, for `valgrind --tool=callgrind --toggle-collect='toi_3d::call_ours'`), with
+//! `TOI_BENCH_SHARED=1` only on the cases ours and `parry_sweep` both answer correctly (those
+//! of the ratio ours / parry_sweep).
 
 #[path = "../tests/support/reference_3d.rs"]
 mod reference_3d;
@@ -606,10 +608,14 @@ fn main() {
         );
     }
     if let Some(n) = mode.profile {
+        let shared = std::env::var_os("TOI_BENCH_SHARED").is_some();
         for f in &families {
+            let correct = |i: usize, e: Engine| f.verdicts[i][&e] == Some(Verdict::Correct);
             for _ in 0..n {
-                for inputs in &f.inputs {
-                    Engine::ALL.into_iter().for_each(|e| inputs.call(e));
+                for (i, inputs) in f.inputs.iter().enumerate() {
+                    if !shared || (correct(i, Engine::Ours) && correct(i, Engine::ParrySweep)) {
+                        Engine::ALL.into_iter().for_each(|e| inputs.call(e));
+                    }
                 }
             }
         }

@@ -87,13 +87,13 @@ struct Simplex {
 }
 
 impl Simplex {
-    fn keep(&mut self, which: &[(usize, f32)]) {
-        let old = self.v;
+    /// Writes the vertices `which` of this simplex, with their weights, to `out`.
+    fn keep(&self, which: &[(usize, f32)], out: &mut Simplex) {
         for (k, &(i, weight)) in which.iter().enumerate() {
-            self.v[k] = old[i];
-            self.v[k].weight = weight;
+            out.v[k] = self.v[i];
+            out.v[k].weight = weight;
         }
-        self.count = which.len();
+        out.count = which.len();
     }
 
     /// The closest point of the segment `v[i] v[j]` to the origin, as kept vertices.
@@ -181,11 +181,15 @@ impl Simplex {
         best
     }
 
-    /// The closest point of the simplex to the origin; the simplex is reduced to the vertices
-    /// that carry it. `None` when the origin is inside the tetrahedron.
-    fn reduce(&mut self) -> Option<Vec3> {
+    /// The closest point of the simplex to the origin, and in `out` the simplex reduced to the
+    /// vertices that carry it. `None` when the origin is inside the tetrahedron (`out` is then
+    /// left as it was).
+    fn reduce(&self, out: &mut Simplex) -> Option<Vec3> {
         let (kept, n, point) = match self.count {
-            1 => return Some(self.v[0].w),
+            1 => {
+                (out.v[0], out.count) = (self.v[0], 1);
+                return Some(self.v[0].w);
+            }
             2 => self.segment(0, 1),
             3 => self.triangle(0, 1, 2),
             _ => {
@@ -218,7 +222,7 @@ impl Simplex {
                 best?
             }
         };
-        self.keep(&kept[..n]);
+        self.keep(&kept[..n], out);
         Some(point)
     }
 
@@ -298,11 +302,15 @@ fn distance_capped(
     let mut iterations = 0;
     let mut last_dir = Vec3::ZERO;
     let mut overlap = false;
-    // The last reduced simplex and the square of its distance: each step must come closer.
-    let mut best = (simplex, f32::INFINITY);
+    // Two simplices in turn, each step reducing one into the other, so that the last reduced
+    // simplex is still at hand (without a copy) when a step fails to come closer: `simplex`
+    // is the current one, `spare` the other. The square of the last reduced one's distance.
+    let mut other = Simplex::default();
+    let (mut simplex, mut spare) = (&mut simplex, &mut other);
+    let mut best = f32::INFINITY;
     // Every exit leaves a reduced simplex, so that its weights are the closest point's.
     loop {
-        let Some(closest) = simplex.reduce() else {
+        let Some(closest) = simplex.reduce(spare) else {
             overlap = true;
             break;
         };
@@ -312,11 +320,13 @@ fn distance_capped(
         // going on would cycle to the iteration cap and end anywhere (van den Bergen's
         // monotonicity test).
         let distance2 = closest.length_squared();
-        if distance2 >= best.1 {
-            simplex = best.0;
+        if distance2 >= best {
+            // The last reduced simplex with the vertex added to it taken off again.
+            simplex.count -= 1;
             break;
         }
-        best = (simplex, distance2);
+        best = distance2;
+        core::mem::swap(&mut simplex, &mut spare);
         if iterations == max_iterations {
             break;
         }

@@ -38,6 +38,7 @@ impl ToiDim for D2 {
     type Cache = SimplexCache;
     /// The start angle (reduced) and the turn over the step (rad, signed).
     type Turn = (f32, f32);
+    type Start = ();
 
     const MAX_POINTS: usize = MAX_POLYGON_VERTICES;
     const FULL_SIMPLEX: u32 = 3;
@@ -63,7 +64,10 @@ impl ToiDim for D2 {
     }
 
     #[inline(always)]
-    fn turn(sweep: &Sweep, turns: bool) -> ((f32, f32), f32) {
+    fn start(_sweep: &Sweep, _q0: Rot) {}
+
+    #[inline(always)]
+    fn turn(sweep: &Sweep, _start: (), turns: bool) -> ((f32, f32), f32) {
         let w = if turns { sweep.a1 - sweep.a0 } else { 0.0 };
         ((reduced_angle(sweep.a0), w), w.abs())
     }

@@ -26,6 +26,9 @@ pub trait ToiDim: Dim {
     type Cache: Copy + Default + Debug;
     /// How a body turns over the step, as [`Self::pose`] reads it.
     type Turn: Copy + Debug;
+    /// What a body's frame keeps of its start pose beyond the rotation, for [`Self::turn`]:
+    /// nothing in the plane; in space the centre of mass from the body origin, rotated.
+    type Start: Copy + Debug;
 
     /// The most core points of a proxy.
     const MAX_POINTS: usize;
@@ -40,8 +43,11 @@ pub trait ToiDim: Dim {
     fn local_center(sweep: &Self::Sweep) -> Self::Vector;
     /// The rotation at the start of the sweep.
     fn start_rotation(sweep: &Self::Sweep) -> Self::Rotation;
-    /// The turn over the step, and its magnitude (rad); none when `turns` is false.
-    fn turn(sweep: &Self::Sweep, turns: bool) -> (Self::Turn, f32);
+    /// What a body's frame keeps of its start pose, given its start rotation `q0`.
+    fn start(sweep: &Self::Sweep, q0: Self::Rotation) -> Self::Start;
+    /// The turn over the step from the frame's `start`, and its magnitude (rad); none when
+    /// `turns` is false.
+    fn turn(sweep: &Self::Sweep, start: Self::Start, turns: bool) -> (Self::Turn, f32);
     /// The body pose at `t` (the origin shifted as the motion's centres are).
     fn pose(motion: &Motion<Self>, t: f32) -> Self::Pose;
     /// GJK between the cores at the given poses, warm-started from `cache`.
@@ -89,10 +95,12 @@ pub trait ToiDim: Dim {
 /// except where the latter proves a pair apart by bounding discs alone (then both say
 /// `Separated`, with different counters).
 #[derive(Clone, Copy, Debug)]
-pub(crate) struct Frame<D: Dim> {
+pub(crate) struct Frame<D: ToiDim> {
     pub(crate) q0: D::Rotation,
     /// Largest distance of a core point from the centre of mass (m).
     pub(crate) reach: f32,
+    /// The rest of the start pose the dimension keeps ([`ToiDim::start`]).
+    pub(crate) start: D::Start,
 }
 
 impl<D: ToiDim> Frame<D> {
@@ -112,18 +120,26 @@ impl<D: ToiDim> Frame<D> {
         self.reach
     }
 
-    /// A frame from its rotation and reach, as [`Self::rotation`] and [`Self::reach`] gave
-    /// them.
-    pub(crate) fn from_parts(q0: D::Rotation, reach: f32) -> Self {
-        Self { q0, reach }
-    }
-
     /// The same, with the reach already known (`proxy.max_distance_from(local_center)`).
     #[inline]
     pub(crate) fn with_reach(sweep: &D::Sweep, reach: f32) -> Self {
+        let q0 = D::start_rotation(sweep);
         Self {
-            q0: D::start_rotation(sweep),
+            q0,
             reach,
+            start: D::start(sweep, q0),
+        }
+    }
+}
+
+impl<D: ToiDim<Start = ()>> Frame<D> {
+    /// A frame from its rotation and reach, as [`Self::rotation`] and [`Self::reach`] gave
+    /// them (in the plane, where they are the whole frame).
+    pub(crate) fn from_parts(q0: D::Rotation, reach: f32) -> Self {
+        Self {
+            q0,
+            reach,
+            start: (),
         }
     }
 }
@@ -159,7 +175,7 @@ impl<D: ToiDim> Motion<D> {
         frame: Frame<D>,
     ) -> Self {
         let turns = !(proxy.count() == 1 && frame.reach == 0.0);
-        let (turn, spin) = D::turn(sweep, turns);
+        let (turn, spin) = D::turn(sweep, frame.start, turns);
         Self {
             c0: D::c0(sweep) - origin,
             v: D::c1(sweep) - D::c0(sweep),

@@ -170,11 +170,14 @@ impl ToiBody {
     }
 }
 
-/// A body's turn: the unit axis and the angle over the step (rad, not negative).
+/// A body's turn: the unit axis and the angle over the step (rad, not negative), and the
+/// centre of mass from the body origin at the start rotation (`q0 * local_center`), the
+/// offset of every pose the body has not turned from.
 #[derive(Clone, Copy, Debug)]
 pub struct Turn {
     axis: Vec3,
     angle: f32,
+    offset: Vec3,
 }
 
 impl ToiDim for D3 {
@@ -182,6 +185,8 @@ impl ToiDim for D3 {
     type Sweep = Sweep;
     type Cache = SimplexCache;
     type Turn = Turn;
+    /// The centre of mass from the body origin at the start rotation (`q0 * local_center`).
+    type Start = Vec3;
 
     const MAX_POINTS: usize = MAX_HULL_VERTICES;
     const FULL_SIMPLEX: u32 = 4;
@@ -206,26 +211,45 @@ impl ToiDim for D3 {
         sweep.q0.normalize()
     }
 
+    #[inline(always)]
+    fn start(sweep: &Sweep, q0: Quat) -> Vec3 {
+        q0 * sweep.local_center
+    }
+
     #[inline]
-    fn turn(sweep: &Sweep, turns: bool) -> (Turn, f32) {
+    fn turn(sweep: &Sweep, offset: Vec3, turns: bool) -> (Turn, f32) {
         let angle = if turns { sweep.w.length() } else { 0.0 };
         if angle > 0.0 {
             let axis = sweep.w / angle;
-            (Turn { axis, angle }, angle)
+            (
+                Turn {
+                    axis,
+                    angle,
+                    offset,
+                },
+                angle,
+            )
         } else {
             let axis = Vec3::X;
-            (Turn { axis, angle: 0.0 }, 0.0)
+            (
+                Turn {
+                    axis,
+                    angle: 0.0,
+                    offset,
+                },
+                0.0,
+            )
         }
     }
 
     #[inline]
     fn pose(motion: &Motion<D3>, t: f32) -> Pose {
         let turn = t * motion.turn.angle;
-        let q = if turn == 0.0 {
-            motion.q0
-        } else {
-            Quat::from_axis_angle(motion.turn.axis, turn) * motion.q0
-        };
+        if turn == 0.0 {
+            // Not turned: the start rotation and its offset, rotated once for the body.
+            return Pose::new(motion.center(t) - motion.turn.offset, motion.q0);
+        }
+        let q = Quat::from_axis_angle(motion.turn.axis, turn) * motion.q0;
         Pose::new(motion.center(t) - q * motion.local_center, q)
     }
 
