@@ -55,7 +55,9 @@ const SOLVE_BATCH: usize = 16;
 /// and the statics, and component writes commute (one body, one lane), so the results are
 /// the same bits on any number of threads; the messages keep the listing order
 /// ([`send_impacts`](super::impacts::send_impacts)). `hooks` are asked about each impact
-/// ([`CcdHooks`]); `()`, the default, accepts all.
+/// ([`CcdHooks`]); `()`, the default, accepts all. With
+/// [`CcdConfig::bodies_collide`] the lanes are listed and gathered in the region, then solved
+/// together ([`solve_together`]) and written back lane by lane.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn solve<H: CcdHooks + 'static>(
     hooks: StaticSystemParam<H>,
@@ -226,6 +228,8 @@ pub(crate) fn solve<H: CcdHooks + 'static>(
         if diagnostics.bodies_clamped != clamped {
             diagnostics.bodies_clamped = clamped;
         }
+    } else if diagnostics.bodies_clamped != 0 {
+        diagnostics.bodies_clamped = 0;
     }
     let clamped = listing.clamped;
     if hook_panicked.load(Ordering::Relaxed) {
