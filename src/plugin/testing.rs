@@ -152,6 +152,34 @@ pub fn deepest_penetration(world: &mut World) -> (f32, Option<(Entity, Entity)>)
     deepest(static_overlaps(world, 0.0))
 }
 
+/// How deep shape `a` is in shape `b` at their poses (m; negative when apart, infinite when
+/// their cores overlap). Measured about A's origin: far from the world origin the difference
+/// of two nearby positions is exact in f32 (Sterbenz: they are within a factor of two of each
+/// other), so the measure adds no rounding of its own to the plugin's.
+fn depth_between((a, pose_a): (&ShapeProxy, Pose), (b, pose_b): (&ShapeProxy, Pose)) -> f32 {
+    let d = shape_distance(
+        &DistanceInput {
+            proxy_a: a,
+            proxy_b: b,
+            pose_a: Pose {
+                p: Vec2::ZERO,
+                ..pose_a
+            },
+            pose_b: Pose {
+                p: pose_b.p - pose_a.p,
+                ..pose_b
+            },
+            use_radii: true,
+        },
+        &mut Default::default(),
+    );
+    if d.simplex_count == 3 {
+        f32::INFINITY
+    } else {
+        -d.distance
+    }
+}
+
 /// The deepest of `overlaps`, and its pair; 0 and `None` without any.
 fn deepest(overlaps: Vec<(Entity, Entity, f32)>) -> (f32, Option<(Entity, Entity)>) {
     overlaps
@@ -206,31 +234,7 @@ fn static_overlaps(world: &mut World, depth: f32) -> Vec<(Entity, Entity, f32)> 
             if !aabb.overlaps(taabb) || !layers.interacts(*target_layers) {
                 continue;
             }
-            // Measured about the body's origin: far from the world origin the difference of
-            // two nearby positions is exact in f32 (Sterbenz: they are within a factor of two
-            // of each other), so the measure adds no rounding of its own to the plugin's.
-            let d = shape_distance(
-                &DistanceInput {
-                    proxy_a: collider,
-                    proxy_b: proxy,
-                    pose_a: Pose {
-                        p: Vec2::ZERO,
-                        ..pose
-                    },
-                    pose_b: Pose {
-                        p: tpose.p - pose.p,
-                        ..*tpose
-                    },
-                    use_radii: true,
-                },
-                &mut Default::default(),
-            );
-            // Cores overlapping: deeper than any slop; report the body's size as the depth.
-            let depth = if d.simplex_count == 3 {
-                f32::INFINITY
-            } else {
-                -d.distance
-            };
+            let depth = depth_between((collider, pose), (proxy, *tpose));
             if depth > floor {
                 overlaps.push((entity, *target, depth));
             }
@@ -272,27 +276,7 @@ fn body_overlaps(world: &mut World, depth: f32) -> Vec<(Entity, Entity, f32)> {
             if body == other || both_fixed || !aabb.overlaps(oaabb) || !layers.interacts(*olayers) {
                 continue;
             }
-            let d = shape_distance(
-                &DistanceInput {
-                    proxy_a: proxy,
-                    proxy_b: oproxy,
-                    pose_a: Pose {
-                        p: Vec2::ZERO,
-                        ..*pose
-                    },
-                    pose_b: Pose {
-                        p: opose.p - pose.p,
-                        ..*opose
-                    },
-                    use_radii: true,
-                },
-                &mut Default::default(),
-            );
-            let depth = if d.simplex_count == 3 {
-                f32::INFINITY
-            } else {
-                -d.distance
-            };
+            let depth = depth_between((proxy, *pose), (oproxy, *opose));
             if depth > floor {
                 overlaps.push((*body, *other, depth));
             }
