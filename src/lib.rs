@@ -56,9 +56,9 @@ pub mod prelude {
         BodyMass, CastFilter, CastHit, CcdConfig, CcdDiagnostics, CcdEnabled, CcdError, CcdEvents,
         CcdHits, CcdHooks, CcdImpact, CcdImpactCandidate, CcdImpactEvent, CcdOutcome, CcdPlugin,
         CcdSchedule, CcdSensorCrossing, CcdSensorEntered, CcdSensorExited, CcdStartSchedule,
-        CcdStepSystems, CcdSystems, Collider, CollisionLayers, Friction, MoveAndSlideOutput,
-        MovingTarget, OneWayPlatform, OneWayPlatformHooks, Resolution, Restitution, Sensor,
-        StaticCollider, StaticQuery, Velocity,
+        CcdStepSystems, CcdSystems, Collider, CollisionLayers, Friction, Immovable,
+        MoveAndSlideOutput, MovingTarget, OneWayPlatform, OneWayPlatformHooks, Resolution,
+        Restitution, Sensor, StaticCollider, StaticQuery, Velocity,
     };
     pub use glam::Vec2;
 }

@@ -190,13 +190,14 @@ pub fn separation_tolerance(linear_slop: f32) -> f32 {
 pub const MAX_SUBSTEPS: u32 = 64;
 
 /// The most impacts one body may take with other bodies in one step when bodies meet each
-/// other (time-ordered, [`crate::geometry::solver::bodies`]); at the next it is clamped where it
-/// is for the rest of the step and is an infinite mass to the others.
+/// other ([`CcdConfig::bodies_collide`](crate::prelude::CcdConfig::bodies_collide)); at the next it is
+/// clamped where it is for the rest of the step, at rest, and is an infinite mass to the
+/// others.
 ///
 /// Each impact re-solves the body against the world for the rest of the step, so the bound
 /// caps that work; a Newton's cradle of `n` balls takes at most two per ball, and a body in a
 /// dense crowd that needs more in one step is trapped there.
-pub(crate) const MAX_BODY_IMPACTS: u32 = 16;
+pub const MAX_BODY_IMPACTS: u32 = 16;
 
 /// The most impacts in a row a body may resolve without advancing (it starts a sweep touching
 /// targets, is responded to, and touches again at once) before it is left where it is for the

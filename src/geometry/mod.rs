@@ -24,9 +24,10 @@ mod test_support;
 pub use bvh::Bvh;
 pub(crate) use bvh::QUERY_GROUP;
 pub use constants::{
-    HULL_RELATIVE_TOLERANCE, LINEAR_SLOP, MAX_ASPECT_RATIO, MAX_HULL_INPUT_POINTS,
-    MAX_HULL_VERTICES, MAX_POLYGON_VERTICES, MAX_SUBSTEPS, MAX_WORLD_COORDINATE, MIN_SHAPE_SIZE,
-    SLOP_PER_COORDINATE_SPACING, max_world_coordinate, separation_tolerance, target_separation,
+    HULL_RELATIVE_TOLERANCE, LINEAR_SLOP, MAX_ASPECT_RATIO, MAX_BODY_IMPACTS,
+    MAX_HULL_INPUT_POINTS, MAX_HULL_VERTICES, MAX_POLYGON_VERTICES, MAX_SUBSTEPS,
+    MAX_WORLD_COORDINATE, MIN_SHAPE_SIZE, SLOP_PER_COORDINATE_SPACING, max_world_coordinate,
+    separation_tolerance, target_separation,
 };
 pub(crate) use math::atan2;
 pub use math::{Pose, Rot};

@@ -49,6 +49,21 @@ pub struct CcdConfig {
     /// the compute pool what is left). A pool as large as the machine has cores makes one
     /// worker more than there are cores.
     pub parallel: bool,
+    /// Bodies collide with each other, ordered in time, as with static and moving targets
+    /// (Box2D v2.4's `SolveTOI`): two bodies' paths are swept against each other, the
+    /// earliest impact in a group of bodies whose paths meet is resolved first (an impulse
+    /// between their two masses), and the two are swept on from there. [`CollisionLayers`]
+    /// decide which bodies meet, [`CcdHooks`] see each impact (the other body as the target),
+    /// an [`Immovable`] body is never pushed. A body takes at most
+    /// [`MAX_BODY_IMPACTS`](crate::geometry::MAX_BODY_IMPACTS) impacts with others in a step,
+    /// then stays where it is for the rest of the step
+    /// ([`CcdDiagnostics::bodies_clamped`](super::CcdDiagnostics::bodies_clamped) counts them).
+    /// The default is `false`: bodies pass through each other, at no cost.
+    ///
+    /// [`CollisionLayers`]: super::CollisionLayers
+    /// [`CcdHooks`]: super::CcdHooks
+    /// [`Immovable`]: super::Immovable
+    pub bodies_collide: bool,
 }
 
 impl Default for CcdConfig {
@@ -58,6 +73,7 @@ impl Default for CcdConfig {
             linear_slop: LINEAR_SLOP,
             timestep: None,
             parallel: true,
+            bodies_collide: false,
         }
     }
 }

@@ -37,4 +37,9 @@ pub struct CcdDiagnostics {
     /// Impacts reported in the last step ([`CcdImpact`](super::CcdImpact) messages). The
     /// default is 0.
     pub impacts: usize,
+    /// Bodies that reached the bound of impacts with other bodies in the last step
+    /// ([`MAX_BODY_IMPACTS`](crate::geometry::MAX_BODY_IMPACTS)) and were stopped for the rest
+    /// of it; 0 unless [`CcdConfig::bodies_collide`](super::CcdConfig::bodies_collide). The
+    /// default is 0.
+    pub bodies_clamped: usize,
 }

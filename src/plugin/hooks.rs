@@ -19,7 +19,7 @@ pub struct CcdImpactCandidate {
     pub body: Entity,
     /// The body's collider that hits: the body itself, or the part of a compound body.
     pub body_collider: Entity,
-    /// The static target.
+    /// The target (static or moving), or the other body.
     pub target: Entity,
     /// The target's collider that is hit: the target itself, or a part of it.
     pub target_collider: Entity,
@@ -29,13 +29,18 @@ pub struct CcdImpactCandidate {
     pub point: Vec2,
     /// Unit normal from the target toward the body.
     pub normal: Vec2,
-    /// The body's velocity at the contact point as it arrives (m/s; the target is static, so
-    /// this is also the relative velocity). Negative along `normal` when it approaches.
+    /// The body's velocity at the contact point as it arrives, relative to the other body's in
+    /// an impact between two bodies (m/s). Negative along `normal` when it approaches.
     pub relative_velocity: Vec2,
     /// The body started this sweep (the step, or the sub-step) overlapping the target.
     pub overlapping: bool,
-    /// 0 for an impact of the step's first sweep, then 1, 2, ... after sub-steps.
+    /// 0 for an impact of the step's first sweep, then 1, 2, ... after sub-steps; 0 for an
+    /// impact between two bodies.
     pub substep: u32,
+    /// The other body, when the impact is between two bodies
+    /// ([`CcdConfig::bodies_collide`](super::CcdConfig::bodies_collide)): then also `target`,
+    /// and the hook is asked once for each body, the impact kept when both accept it.
+    pub other_body: Option<Entity>,
 }
 
 /// User code that may veto impacts, as Box2D's `b2PreContinuousFcn` and Avian's
@@ -131,8 +136,18 @@ pub(crate) fn ask(
         relative_velocity: hit.velocity,
         overlapping: hit.overlapping,
         substep: hit.substep,
+        other_body: None,
     };
-    catch_unwind(AssertUnwindSafe(|| hooks.accept_impact(&candidate))).unwrap_or_else(|_| {
+    ask_candidate(hooks, panicked, &candidate)
+}
+
+/// `hooks` asked about `candidate`, a panic caught (the impact kept, `panicked` raised).
+pub(crate) fn ask_candidate(
+    hooks: &impl CcdHooks,
+    panicked: &AtomicBool,
+    candidate: &CcdImpactCandidate,
+) -> bool {
+    catch_unwind(AssertUnwindSafe(|| hooks.accept_impact(candidate))).unwrap_or_else(|_| {
         panicked.store(true, Ordering::Relaxed);
         true
     })

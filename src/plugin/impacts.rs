@@ -21,6 +21,7 @@ pub(crate) fn send_impacts(
         entities: &ws.statics.entities,
         colliders: &ws.statics.colliders,
         child_frames: &ws.bodies.child_frames,
+        bodies: &ws.bodies.entries,
     };
     let mut sent = 0;
     // Lane by lane, in gathering order; each lane's `hit` list names its bodies with impacts,

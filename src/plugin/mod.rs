@@ -7,6 +7,7 @@
 //! (messages); `sensors` (the sensors' hierarchy, their crossings) and `events` (the entity
 //! events of [`CcdEvents`]); `parallel` hands out the work of each.
 
+mod bodies;
 mod components;
 mod compound;
 mod config;
@@ -41,6 +42,7 @@ use bevy_ecs::system::SystemParamItem;
 use bevy_time::{Fixed, Time};
 
 pub use crate::geometry::Resolution;
+pub use bodies::Immovable;
 pub(crate) use components::usable_mass;
 pub use components::{
     BodyMass, CcdEnabled, Collider, Friction, MovingTarget, Restitution, StaticCollider, StepPoses,
@@ -228,7 +230,8 @@ impl Plugin for CcdPlugin {
             .register_type::<CastHit>()
             .register_type::<OneWayPlatform>()
             .register_type::<Sensor>()
-            .register_type::<CcdEvents>();
+            .register_type::<CcdEvents>()
+            .register_type::<Immovable>();
         for label in [CcdStartSchedule.intern(), CcdSchedule.intern()] {
             app.init_schedule(label);
             app.edit_schedule(label, |schedule| {

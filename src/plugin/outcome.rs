@@ -7,9 +7,11 @@ use glam::Vec2;
 
 use crate::geometry::ToiFailure;
 
-/// One impact of a body against a static target: a message for every impact of a step
-/// (sub-step impacts included), in a deterministic order (by body, then by time), and the
-/// first one of a body's step in its [`CcdOutcome`].
+/// One impact of a body against a target (static or moving) or, with
+/// [`CcdConfig::bodies_collide`](super::CcdConfig::bodies_collide), another body: a message for
+/// every impact of a step (sub-step impacts included), in a deterministic order (by body, then
+/// by time), and the first one of a body's step in its [`CcdOutcome`]. An impact between two
+/// bodies is a message for each, each naming the other as its `target` and `other_body`.
 ///
 /// ```
 /// use bevy_ccd::prelude::*;
@@ -31,7 +33,7 @@ pub struct CcdImpact {
     /// The collider of the body that hit: the body itself, or the child entity whose
     /// [`Collider`](super::Collider) is the part of a compound body that hit.
     pub body_collider: Entity,
-    /// The static target it hit: the [`StaticCollider`](super::StaticCollider) entity.
+    /// What it hit: the [`StaticCollider`](super::StaticCollider) entity, or the other body.
     pub target: Entity,
     /// The collider of the target it hit: `target` itself when the target is its own
     /// [`Collider`](super::Collider), else the part of it (a child collider below it).
@@ -44,6 +46,9 @@ pub struct CcdImpact {
     pub normal: Vec2,
     /// 0 for the first impact of the step, then 1, 2, ... for impacts after sub-steps.
     pub substep: u32,
+    /// The other body, when this is an impact between two bodies (then also `target`);
+    /// `None` for an impact with a target.
+    pub other_body: Option<Entity>,
 }
 
 /// The impacts of a body's step: the first, and how many there were.
@@ -130,8 +135,10 @@ pub enum CcdOutcome {
     Clear,
     /// Swept; hit one target or more.
     Hit(CcdHits),
-    /// Swept; started the step overlapping a target, motion that separates was allowed; and
-    /// the impacts, if any.
+    /// Swept; started the step overlapping a target (or, with
+    /// [`CcdConfig::bodies_collide`](super::CcdConfig::bodies_collide), another body: the two
+    /// are left to separate, never launched), motion that separates was allowed; and the
+    /// impacts, if any.
     Overlapping(Option<CcdHits>),
     /// Could not be swept (left where its user put it), or the time of impact failed (clamped
     /// at the last pose known to be clear; the impacts before are in the messages).

@@ -10,9 +10,10 @@ use bevy_time::{Fixed, Time};
 use glam::Vec2;
 use std::sync::atomic::{AtomicBool, Ordering};
 
+use super::bodies::{Immovable, solve_together};
 use super::compound::Compounds;
 use super::gather::{BodyShape, GROUP_MIN_BODIES, Gather, ListQuery, Listing, list_bodies};
-use super::hooks::{CcdHooks, ask};
+use super::hooks::{CcdHooks, CcdImpactCandidate, ask, ask_candidate};
 use super::outcome::CcdError;
 use super::parallel::{MAX_ITEMS, hand_out, pool, workers};
 use super::record::step_length;
@@ -54,7 +55,9 @@ const SOLVE_BATCH: usize = 16;
 /// and the statics, and component writes commute (one body, one lane), so the results are
 /// the same bits on any number of threads; the messages keep the listing order
 /// ([`send_impacts`](super::impacts::send_impacts)). `hooks` are asked about each impact
-/// ([`CcdHooks`]); `()`, the default, accepts all.
+/// ([`CcdHooks`]); `()`, the default, accepts all. With
+/// [`CcdConfig::bodies_collide`] the lanes are listed and gathered in the region, then solved
+/// together ([`solve_together`]) and written back lane by lane.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn solve<H: CcdHooks + 'static>(
     hooks: StaticSystemParam<H>,
@@ -62,7 +65,7 @@ pub(crate) fn solve<H: CcdHooks + 'static>(
     time: Option<Res<Time<Fixed>>>,
     mut workspace: ResMut<CcdWorkspace>,
     mut diagnostics: ResMut<CcdDiagnostics>,
-    (ticks, compounds): (SystemChangeTick, Res<Compounds>),
+    (ticks, compounds, immovable): (SystemChangeTick, Res<Compounds>, Query<(), With<Immovable>>),
     mut queries: ParamSet<(ListQuery, WriteQuery)>,
     colliders: Query<&Collider, Without<StaticCollider>>,
     layers: Query<&CollisionLayers, Without<StaticCollider>>,
@@ -90,6 +93,9 @@ pub(crate) fn solve<H: CcdHooks + 'static>(
             .resize_with(lane_count, Lane::default);
     }
     let mode = config.resolution;
+    // Bodies against bodies: the lanes are listed and gathered as without, then solved all
+    // together once every lane is listed, then written back.
+    let together = config.bodies_collide;
     let settings = SolveSettings {
         mode,
         linear_slop: config.linear_slop,
@@ -117,6 +123,7 @@ pub(crate) fn solve<H: CcdHooks + 'static>(
         entities: &targets.entities,
         colliders: &targets.colliders,
         child_frames,
+        bodies: &[],
     };
     let mut listing = Listing {
         step,
@@ -158,8 +165,19 @@ pub(crate) fn solve<H: CcdHooks + 'static>(
     };
     let hooks = &*hooks;
     let hook_panicked = AtomicBool::new(false);
-    let accept = |body: Entity, collider: Entity, hit: &CandidateHit| {
-        ask(hooks, &targets, &hook_panicked, (body, collider), hit)
+    let accept: &(dyn Fn(Entity, Entity, &CandidateHit) -> bool + Sync) =
+        &|body, collider, hit| ask(hooks, &targets, &hook_panicked, (body, collider), hit);
+    let accept_body =
+        |candidate: &CcdImpactCandidate| ask_candidate(hooks, &hook_panicked, candidate);
+    let shared = || Shared {
+        statics,
+        static_layers,
+        compounds,
+        settings: &settings,
+        accept,
+        sensors,
+        paths,
+        body_layers: &body_layers,
     };
     let mut listed = 0;
     let (all, listed_out, listing_out) = (&mut entries[..], &mut listed, &mut listing);
@@ -178,24 +196,41 @@ pub(crate) fn solve<H: CcdHooks + 'static>(
         (
             |(chunk, lane): &mut (&mut [BodyEntry], &mut Lane)| gather.lane(chunk, lane),
             |(chunk, lane): &mut (&mut [BodyEntry], &mut Lane)| {
-                let shared = Shared {
-                    statics,
-                    static_layers,
-                    compounds,
-                    settings: &settings,
-                    accept: &accept,
-                    sensors,
-                    paths,
-                    body_layers: &body_layers,
-                };
-                solve_lane(chunk, lane, &shared, &colliders);
+                if !together {
+                    solve_lane(chunk, lane, &shared(), &colliders);
+                }
             },
         ),
         |queries, (chunk, lane)| {
-            write_lane(chunk, lane, &mut queries.p1(), &targets, compounds);
+            if !together {
+                write_lane(chunk, lane, &mut queries.p1(), &targets, compounds);
+            }
         },
     );
     entries.truncate(listed);
+    if together {
+        let lanes = &mut lanes[..listed.div_ceil(lane_len)];
+        let shared = shared();
+        let clamped = solve_together(
+            (entries, lanes, lane_len),
+            &shared,
+            (&colliders, &immovable),
+            &accept_body,
+            pool,
+        );
+        let lookups = WriteLookups {
+            bodies: entries,
+            ..targets
+        };
+        for (chunk, lane) in entries.chunks(lane_len).zip(lanes.iter()) {
+            write_lane(chunk, lane, &mut queries.p1(), &lookups, compounds);
+        }
+        if diagnostics.bodies_clamped != clamped {
+            diagnostics.bodies_clamped = clamped;
+        }
+    } else if diagnostics.bodies_clamped != 0 {
+        diagnostics.bodies_clamped = 0;
+    }
     let clamped = listing.clamped;
     if hook_panicked.load(Ordering::Relaxed) {
         workspace.warn_once(Warned::HOOK_PANIC, || {
@@ -284,7 +319,7 @@ fn traced(
 }
 
 /// Stores what the solver did with a body in its entry.
-fn store(body: &mut BodyEntry, outcome: BodyOutcome) {
+pub(crate) fn store(body: &mut BodyEntry, outcome: BodyOutcome) {
     body.position = outcome.position;
     body.angle = outcome.angle;
     if let Some((v, w)) = outcome.velocity {
@@ -310,7 +345,7 @@ fn store(body: &mut BodyEntry, outcome: BodyOutcome) {
 }
 
 /// The [`BodyState`] of an entry.
-fn state(body: &BodyEntry) -> BodyState {
+pub(crate) fn state(body: &BodyEntry) -> BodyState {
     BodyState {
         local_center: body.sweep.local_center,
         mass: body.mass,
@@ -324,13 +359,42 @@ fn state(body: &BodyEntry) -> BodyState {
 
 /// What the solver may let a body hit: each part's [`CollisionLayers`] against the target's
 /// (the one place layers are filtered for solid targets), and the hooks on its impacts.
-struct Rules<'a> {
+pub(crate) struct Rules<'a> {
     /// The layers of each part, as the parts are listed; `None` when neither the body nor any
     /// target has other than the default, so that every pair meets.
     layers: Option<(&'a [CollisionLayers], &'a [CollisionLayers])>,
     /// The body entry, for the entities the hooks see.
     body: &'a BodyEntry,
     shared: &'a Shared<'a>,
+}
+
+impl<'a> Rules<'a> {
+    /// The rules of `body`, whose parts have `part_layers`.
+    pub(crate) fn new(
+        body: &'a BodyEntry,
+        part_layers: &'a [CollisionLayers],
+        shared: &'a Shared<'a>,
+    ) -> Self {
+        // A one-part body without layers skips the scan.
+        let layered = !shared.static_layers.is_empty()
+            || (body.flags & (HAS_LAYERS | COMPOUND) != 0
+                && part_layers.iter().any(|l| *l != CollisionLayers::DEFAULT));
+        Self {
+            layers: layered.then_some((part_layers, shared.static_layers)),
+            body,
+            shared,
+        }
+    }
+}
+
+/// The layers of `body` itself (its own component's, a compound body's union of its parts'),
+/// read only when it has some.
+pub(crate) fn own_layers(body: &BodyEntry, shared: &Shared) -> CollisionLayers {
+    if body.flags & (HAS_LAYERS | COMPOUND) != 0 {
+        (shared.body_layers)(body)
+    } else {
+        CollisionLayers::DEFAULT
+    }
 }
 
 impl BodyFilter for Rules<'_> {
@@ -430,23 +494,17 @@ pub(crate) fn solve_lane(
             let start = body.candidates as usize;
             let list = &candidates[start..start + body.candidate_count as usize];
             let (parts, part_layers) = shared.compounds.parts_of(body, own);
-            // The body's own layers, read only when it has some.
-            let own_layers = [if body.flags & HAS_LAYERS != 0 {
-                (shared.body_layers)(body)
-            } else {
-                CollisionLayers::DEFAULT
-            }];
-            let part_layers = part_layers.unwrap_or(&own_layers);
-            let layered = !shared.static_layers.is_empty()
-                || (body.flags & (HAS_LAYERS | COMPOUND) != 0
-                    && part_layers.iter().any(|l| *l != CollisionLayers::DEFAULT));
+            let body_layers;
+            let part_layers = match part_layers {
+                Some(layers) => layers,
+                None => {
+                    body_layers = [own_layers(body, shared)];
+                    &body_layers
+                }
+            };
             body.impacts = impacts.len() as u32;
             let state = state(body);
-            let rules = Rules {
-                layers: layered.then_some((part_layers, shared.static_layers)),
-                body,
-                shared,
-            };
+            let rules = Rules::new(body, part_layers, shared);
             let outcome = traced(shared, sensing, index, |path| {
                 solve_body(
                     &state,
@@ -466,6 +524,12 @@ pub(crate) fn solve_lane(
     if let Some(sensors) = shared.sensors {
         sense_lane(chunk, lane, sensors, colliders, shared);
     }
+    list_visits(chunk, lane);
+}
+
+/// The lane's lists of bodies with impacts (`hit`) and bodies the write-back must visit
+/// (`visit`).
+pub(crate) fn list_visits(chunk: &[BodyEntry], lane: &mut Lane) {
     let Lane { hit, visit, .. } = lane;
     // The bodies the write-back must visit, and those with impact messages. Every other
     // body was clear before and is clear now, at its end pose: `record_end` already wrote

@@ -149,6 +149,54 @@ pub fn bodies_outside(world: &mut World, bounds: Aabb) -> Vec<Entity> {
 /// pair (collider entity, static); 0 when nothing overlaps. Brute force over
 /// bounding-box-overlapping pairs, independent of the plugin's broad phase.
 pub fn deepest_penetration(world: &mut World) -> (f32, Option<(Entity, Entity)>) {
+    deepest(static_overlaps(world, 0.0))
+}
+
+/// How deep shape `a` is in shape `b` at their poses (m; negative when apart, infinite when
+/// their cores overlap). Measured about A's origin: far from the world origin the difference
+/// of two nearby positions is exact in f32 (Sterbenz: they are within a factor of two of each
+/// other), so the measure adds no rounding of its own to the plugin's.
+fn depth_between((a, pose_a): (&ShapeProxy, Pose), (b, pose_b): (&ShapeProxy, Pose)) -> f32 {
+    let d = shape_distance(
+        &DistanceInput {
+            proxy_a: a,
+            proxy_b: b,
+            pose_a: Pose {
+                p: Vec2::ZERO,
+                ..pose_a
+            },
+            pose_b: Pose {
+                p: pose_b.p - pose_a.p,
+                ..pose_b
+            },
+            use_radii: true,
+        },
+        &mut Default::default(),
+    );
+    if d.simplex_count == 3 {
+        f32::INFINITY
+    } else {
+        -d.distance
+    }
+}
+
+/// The deepest of `overlaps`, and its pair; 0 and `None` without any.
+fn deepest(overlaps: Vec<(Entity, Entity, f32)>) -> (f32, Option<(Entity, Entity)>) {
+    overlaps
+        .into_iter()
+        .fold((0.0, None), |(deepest, pair), (a, b, depth)| {
+            if depth > deepest {
+                (depth, Some((a, b)))
+            } else {
+                (deepest, pair)
+            }
+        })
+}
+
+/// Every overlap deeper than `depth` (m) of a CCD body's collider with a static its layers
+/// let it hit, as [`deepest_penetration`] measures them: (collider entity, static, depth).
+fn static_overlaps(world: &mut World, depth: f32) -> Vec<(Entity, Entity, f32)> {
+    let floor = depth;
     type Item<'a> = (
         Entity,
         &'a Collider,
@@ -178,8 +226,7 @@ pub fn deepest_penetration(world: &mut World) -> (f32, Option<(Entity, Entity)>)
             ))
         })
         .collect();
-    let mut deepest = 0.0f32;
-    let mut pair = None;
+    let mut overlaps = Vec::new();
     for (_, entity, pose, body_proxy, layers) in super::compound::body_colliders(world) {
         let collider = &body_proxy;
         let aabb = collider.aabb(pose);
@@ -187,38 +234,55 @@ pub fn deepest_penetration(world: &mut World) -> (f32, Option<(Entity, Entity)>)
             if !aabb.overlaps(taabb) || !layers.interacts(*target_layers) {
                 continue;
             }
-            // Measured about the body's origin: far from the world origin the difference of
-            // two nearby positions is exact in f32 (Sterbenz: they are within a factor of two
-            // of each other), so the measure adds no rounding of its own to the plugin's.
-            let d = shape_distance(
-                &DistanceInput {
-                    proxy_a: collider,
-                    proxy_b: proxy,
-                    pose_a: Pose {
-                        p: Vec2::ZERO,
-                        ..pose
-                    },
-                    pose_b: Pose {
-                        p: tpose.p - pose.p,
-                        ..*tpose
-                    },
-                    use_radii: true,
-                },
-                &mut Default::default(),
-            );
-            // Cores overlapping: deeper than any slop; report the body's size as the depth.
-            let depth = if d.simplex_count == 3 {
-                f32::INFINITY
-            } else {
-                -d.distance
-            };
-            if depth > deepest {
-                deepest = depth;
-                pair = Some((entity, *target));
+            let depth = depth_between((collider, pose), (proxy, *tpose));
+            if depth > floor {
+                overlaps.push((entity, *target, depth));
             }
         }
     }
-    (deepest, pair)
+    overlaps
+}
+
+/// The deepest overlap of two CCD bodies (m; 0 when none overlap, infinite when two cores
+/// overlap) and the two bodies: what a level test asserts with
+/// [`CcdConfig::bodies_collide`] on (no deeper than the slop). Pairs whose
+/// [`CollisionLayers`] do not meet, two [`Immovable`](super::Immovable) bodies and two parts
+/// of one body are skipped. Measured by distance between the shapes at their poses now, the
+/// pairs found by sorting their boxes along x.
+pub fn deepest_body_overlap(world: &mut World) -> (f32, Option<(Entity, Entity)>) {
+    deepest(body_overlaps(world, 0.0))
+}
+
+/// Every overlap deeper than `depth` (m) of two CCD bodies, as [`deepest_body_overlap`]
+/// measures them: (body, body, depth).
+fn body_overlaps(world: &mut World, depth: f32) -> Vec<(Entity, Entity, f32)> {
+    let floor = depth;
+    let fixed: Vec<Entity> = world
+        .query_filtered::<Entity, With<super::Immovable>>()
+        .iter(world)
+        .collect();
+    let mut colliders: Vec<_> = super::compound::body_colliders(world)
+        .into_iter()
+        .map(|(body, _, pose, proxy, layers)| (body, pose, proxy, layers, proxy.aabb(pose)))
+        .collect();
+    colliders.sort_by(|a, b| a.4.min.x.total_cmp(&b.4.min.x));
+    let mut overlaps = Vec::new();
+    for (i, (body, pose, proxy, layers, aabb)) in colliders.iter().enumerate() {
+        for (other, opose, oproxy, olayers, oaabb) in &colliders[i + 1..] {
+            if oaabb.min.x > aabb.max.x {
+                break;
+            }
+            let both_fixed = fixed.contains(body) && fixed.contains(other);
+            if body == other || both_fixed || !aabb.overlaps(oaabb) || !layers.interacts(*olayers) {
+                continue;
+            }
+            let depth = depth_between((proxy, *pose), (oproxy, *opose));
+            if depth > floor {
+                overlaps.push((*body, *other, depth));
+            }
+        }
+    }
+    overlaps
 }
 
 /// The position and angle the plugin reads off a `Transform` (x, y and the rotation about z),

@@ -5,6 +5,7 @@ use bevy_ecs::prelude::*;
 use bevy_transform::components::Transform;
 use glam::Quat;
 
+use super::bodies::other_body;
 use super::compound::Compounds;
 use super::hierarchy::Planar;
 use super::outcome::{CcdError, CcdHits, CcdImpact, CcdOutcome};
@@ -157,11 +158,13 @@ fn turned(user: Quat, local_angle: f32, turn: f32) -> Quat {
 }
 
 /// What the write-back reads of the workspace besides the lane: each item's target and
-/// collider entity, and this step's child bodies' parent poses.
+/// collider entity, this step's child bodies' parent poses, and the bodies (the other body of
+/// an impact between two).
 pub(crate) struct WriteLookups<'a> {
     pub(crate) entities: &'a [Entity],
     pub(crate) colliders: &'a [Entity],
     pub(crate) child_frames: &'a [(Entity, Result<Planar, CcdError>)],
+    pub(crate) bodies: &'a [BodyEntry],
 }
 
 impl WriteLookups<'_> {
@@ -174,11 +177,24 @@ impl WriteLookups<'_> {
         substep: u32,
         compounds: &Compounds,
     ) -> CcdImpact {
+        let (target, target_collider, other_body) = match other_body(record.target) {
+            Some((index, part)) => {
+                let other = &self.bodies[index];
+                let entity = other.entity;
+                (entity, compounds.collider(other, part), Some(entity))
+            }
+            None => (
+                self.entities[record.target as usize],
+                self.colliders[record.target as usize],
+                None,
+            ),
+        };
         CcdImpact {
             body: body.entity,
             body_collider: compounds.collider(body, record.part),
-            target: self.entities[record.target as usize],
-            target_collider: self.colliders[record.target as usize],
+            target,
+            target_collider,
+            other_body,
             fraction: record.fraction,
             point: record.point,
             normal: record.normal,

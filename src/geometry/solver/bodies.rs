@@ -47,14 +47,16 @@
 //! non-finite mass, a velocity beyond `f32` after the impulse), clamps both bodies at that time
 //! with the failure in their outcomes; other bodies are not touched.
 
+use core::ops::{Index, IndexMut};
+
 use glam::Vec2;
 
 use crate::geometry::constants::MAX_BODY_IMPACTS;
 use crate::geometry::query::toi::{BodyFrame, ToiFailure};
 use crate::geometry::shape::Aabb;
 use crate::geometry::solver::body_solver::{
-    BodyOutcome, BodyPart, BodyState, ImpactRecord, MAX_PARTS, Resolution, SolveSettings,
-    solve_body_from,
+    BodyFilter, BodyOutcome, BodyPart, BodyState, ImpactRecord, MAX_PARTS, Resolution,
+    SolveSettings, solve_body_from,
 };
 use crate::geometry::solver::mutual::{Side, mutual_response};
 use crate::geometry::solver::pair::{Contact, PairOutcome, contact_patch, pair_toi};
@@ -121,19 +123,65 @@ pub(crate) struct BodiesOutcome {
     pub(crate) clamped: u32,
 }
 
+/// What the caller decides of bodies meeting ([`solve_bodies`]): which pairs may collide
+/// (collision layers), whether an impact between two is kept (hooks), the filter each body
+/// meets the world with, and how independent work is spread over threads. A closure
+/// `Fn(u32, u32) -> bool` is `meets` alone: every impact kept, the world unfiltered, one
+/// thread.
+pub(crate) trait MutualRules: Sync {
+    /// Whether bodies `a` and `b` (`a < b`) may collide.
+    fn meets(&self, a: u32, b: u32) -> bool;
+    /// Whether the impact `hit` between bodies `a` and `b` is responded to; a rejected pair
+    /// is ignored for the rest of the step, as a rejected target is.
+    fn accept(&self, a: u32, b: u32, hit: &MutualHit) -> bool;
+    /// The filter body `body` meets the world with.
+    fn world(&self, body: u32) -> impl BodyFilter;
+    /// `f(0), f(1), ..., f(n - 1)`, in that order whatever thread computed each: the items
+    /// are independent, so the answer is the same bits on one thread or many.
+    fn spread<R: Send>(&self, n: usize, f: &(dyn Fn(usize) -> R + Sync)) -> Vec<R> {
+        (0..n).map(f).collect()
+    }
+}
+
+impl<F: Fn(u32, u32) -> bool + Sync> MutualRules for F {
+    fn meets(&self, a: u32, b: u32) -> bool {
+        self(a, b)
+    }
+    fn accept(&self, _: u32, _: u32, _: &MutualHit) -> bool {
+        true
+    }
+    fn world(&self, _: u32) -> impl BodyFilter {}
+}
+
+/// An impact between two bodies about to be responded to, as [`MutualRules::accept`] sees it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct MutualHit {
+    /// A's part that meets B, and B's that meets A.
+    pub(crate) parts: (u32, u32),
+    /// Fraction of the step.
+    pub(crate) fraction: f32,
+    /// Contact point (world).
+    pub(crate) point: Vec2,
+    /// Unit normal from B toward A.
+    pub(crate) normal: Vec2,
+    /// A's velocity at the point relative to B's as they meet (m/s): negative along `normal`
+    /// when they approach.
+    pub(crate) velocity: Vec2,
+}
+
 /// Solves every body against the world and against the others, ordered in time (see the
-/// module's documentation). `meets(a, b)` (with `a < b`) says whether two bodies may collide
-/// (collision layers). Deterministic: the answer depends only on the inputs.
+/// module's documentation). `rules` say which pairs meet and which impacts count, give each
+/// body's world filter and spread the bodies alone and the islands over threads.
+/// Deterministic: the answer depends only on the inputs.
 pub(crate) fn solve_bodies(
     bodies: &[MutualBody],
     statics: &StaticSet,
     settings: &SolveSettings,
-    meets: impl Fn(u32, u32) -> bool,
+    rules: &impl MutualRules,
 ) -> BodiesOutcome {
-    let alone: Vec<BodyRun> = bodies
-        .iter()
-        .map(|b| solve_alone(b, statics, settings))
-        .collect();
+    let alone: Vec<BodyRun> = rules.spread(bodies.len(), &|i| {
+        solve_alone(&bodies[i], &rules.world(i as u32), statics, settings)
+    });
     let slop = settings.linear_slop;
     let mut bounds: Vec<Aabb> = bodies
         .iter()
@@ -144,7 +192,7 @@ pub(crate) fn solve_bodies(
     // The islands solved so far, with their impacts.
     let mut solved: Vec<(Vec<u32>, Vec<MutualImpact>)> = Vec::new();
     loop {
-        let pairs = candidate_pairs(bodies, &bounds, slop, &meets);
+        let pairs = candidate_pairs(bodies, &bounds, slop, rules);
         let islands = islands(bodies.len(), &pairs);
         // Each island's pairs, by its place in the list.
         let mut slot = vec![usize::MAX; bodies.len()];
@@ -157,30 +205,41 @@ pub(crate) fn solve_bodies(
         for &(a, b) in &pairs {
             island_pairs[slot[a as usize]].push((a, b));
         }
-        let mut changed = false;
-        for (island, pairs) in islands.into_iter().zip(&island_pairs) {
-            // An island solved before with exactly these bodies keeps its answer; any other
-            // is a merge of earlier ones (or new), solved afresh from the bodies' paths alone.
-            if solved.iter().any(|(s, _)| *s == island) {
-                continue;
-            }
-            changed = true;
+        // An island solved before with exactly these bodies keeps its answer; any other is a
+        // merge of earlier ones (or new), solved afresh from the bodies' paths alone.
+        let todo: Vec<Island> = islands
+            .into_iter()
+            .zip(island_pairs)
+            .filter(|(island, _)| !solved.iter().any(|(s, _)| s == island))
+            .collect();
+        if todo.is_empty() {
+            break;
+        }
+        for (island, _) in &todo {
             solved.retain(|(s, _)| island.binary_search(&s[0]).is_err());
-            for &i in &island {
-                runs[i as usize] = alone[i as usize].clone();
-            }
+        }
+        // Islands are independent: each starts from its bodies' paths alone.
+        let answers = rules.spread(todo.len(), &|k| {
+            let (island, pairs) = &todo[k];
+            let mut local = IslandRuns {
+                island,
+                runs: island.iter().map(|&i| alone[i as usize].clone()).collect(),
+            };
             let impacts = solve_island(
-                (&island, pairs),
+                (island, pairs),
                 bodies,
-                &mut runs,
+                &mut local,
                 statics,
                 settings,
-                &meets,
+                rules,
             );
+            (local.runs, impacts)
+        });
+        for ((island, _), (island_runs, impacts)) in todo.into_iter().zip(answers) {
+            for (&i, run) in island.iter().zip(island_runs) {
+                runs[i as usize] = run;
+            }
             solved.push((island, impacts));
-        }
-        if !changed {
-            break;
         }
         for (i, (body, run)) in bodies.iter().zip(&runs).enumerate() {
             bounds[i] = bounds[i].union(path_bounds(body.parts, &run.path));
@@ -194,8 +253,39 @@ pub(crate) fn solve_bodies(
     }
 }
 
+/// An island: its bodies (ascending) and its candidate pairs.
+type Island = (Vec<u32>, Vec<(u32, u32)>);
+
+/// The runs of one island's bodies, looked up by body index.
+struct IslandRuns<'a> {
+    /// The island's bodies, ascending.
+    island: &'a [u32],
+    /// Their runs, in the same order.
+    runs: Vec<BodyRun>,
+}
+
+impl Index<usize> for IslandRuns<'_> {
+    type Output = BodyRun;
+    fn index(&self, body: usize) -> &BodyRun {
+        let at = self.island.binary_search(&(body as u32));
+        &self.runs[at.expect("a body of the island")]
+    }
+}
+
+impl IndexMut<usize> for IslandRuns<'_> {
+    fn index_mut(&mut self, body: usize) -> &mut BodyRun {
+        let at = self.island.binary_search(&(body as u32));
+        &mut self.runs[at.expect("a body of the island")]
+    }
+}
+
 /// A body solved against the world alone, its path completed to the step's end.
-fn solve_alone(body: &MutualBody, statics: &StaticSet, settings: &SolveSettings) -> BodyRun {
+fn solve_alone(
+    body: &MutualBody,
+    filter: &impl BodyFilter,
+    statics: &StaticSet,
+    settings: &SolveSettings,
+) -> BodyRun {
     let mut run = BodyRun {
         outcome: BodyOutcome {
             position: body.state.sweep.pose_at(0.0).p,
@@ -213,7 +303,14 @@ fn solve_alone(body: &MutualBody, statics: &StaticSet, settings: &SolveSettings)
         mutual: 0,
         clamped: false,
     };
-    resolve_from(0.0, body, &body.state, &mut run, statics, settings);
+    resolve_from(
+        0.0,
+        (body, filter),
+        &body.state,
+        &mut run,
+        statics,
+        settings,
+    );
     run
 }
 
@@ -221,7 +318,7 @@ fn solve_alone(body: &MutualBody, statics: &StaticSet, settings: &SolveSettings)
 /// `[start, 1]`), replacing its path and impacts after `start` and its outcome.
 fn resolve_from(
     start: f32,
-    body: &MutualBody,
+    (body, filter): (&MutualBody, &impl BodyFilter),
     state: &BodyState,
     run: &mut BodyRun,
     statics: &StaticSet,
@@ -242,7 +339,7 @@ fn resolve_from(
         &candidates,
         settings,
         (&mut Vec::new(), &mut impacts),
-        &(),
+        filter,
         Some(&mut path),
     );
     cut_path(&mut run.path, start);
@@ -326,7 +423,7 @@ fn candidate_pairs(
     bodies: &[MutualBody],
     bounds: &[Aabb],
     slop: f32,
-    meets: &impl Fn(u32, u32) -> bool,
+    rules: &impl MutualRules,
 ) -> Vec<(u32, u32)> {
     let mut order: Vec<u32> = (0..bounds.len() as u32)
         .filter(|&i| {
@@ -349,7 +446,7 @@ fn candidate_pairs(
         for &j in &active {
             let (a, b) = (i.min(j), i.max(j));
             let both_fixed = bodies[a as usize].immovable && bodies[b as usize].immovable;
-            if !both_fixed && bi.overlaps(&bounds[j as usize]) && meets(a, b) {
+            if !both_fixed && bi.overlaps(&bounds[j as usize]) && rules.meets(a, b) {
                 pairs.push((a, b));
             }
         }
@@ -589,15 +686,63 @@ fn stop_at(
     }
 }
 
+/// Stops a body at fraction `t` for the rest of the step, keeping `velocity` as its own (when
+/// it keeps one): it stands there, unless a moving target strikes it there, which the world's
+/// solve of that stand finds (a body stopped among still targets only stands).
+fn stand(
+    body: &MutualBody,
+    run: &mut BodyRun,
+    (t, velocity): (f32, (Vec2, f32)),
+    (statics, filter): (&StaticSet, &impl BodyFilter),
+    settings: &SolveSettings,
+) {
+    if t >= 1.0 || !statics.has_movers() {
+        stop_at(body, run, t, velocity, None);
+        return;
+    }
+    let (c, a, _) = state_at(&run.path, t, settings.dt);
+    let state = BodyState {
+        sweep: Sweep::new(body.state.local_center, c, a, c, a),
+        velocity: Some(velocity),
+        ..body.state
+    };
+    resolve_from(t, (body, filter), &state, run, statics, settings);
+}
+
+/// Clamps a body at its bound at fraction `t`: it stands there for the rest of the step, at
+/// rest (a velocity kept would only drive it into the same bodies again next step), an
+/// infinite mass to the others. A moving target that would strike it there cannot push it
+/// (it would push it into the bodies it met): it is squeezed, left standing (the mover may
+/// overlap it at the step's end), as a body a mover catches against a target.
+fn clamp(
+    body: &MutualBody,
+    run: &mut BodyRun,
+    t: f32,
+    world: (&StaticSet, &impl BodyFilter),
+    settings: &SolveSettings,
+) {
+    let before = run.impacts.len();
+    let mut stood = run.clone();
+    stand(body, &mut stood, (t, (Vec2::ZERO, 0.0)), world, settings);
+    let struck = stood.impacts.len() > before || stood.outcome.squeezed;
+    if struck {
+        stop_at(body, run, t, (Vec2::ZERO, 0.0), None);
+        run.outcome.squeezed = true;
+    } else {
+        *run = stood;
+    }
+    run.clamped = true;
+}
+
 /// The time-ordered loop over one island (see the module's documentation), from its candidate
 /// pairs (ascending); returns its impacts in time order.
 fn solve_island(
     (island, island_pairs): (&[u32], &[(u32, u32)]),
     bodies: &[MutualBody],
-    runs: &mut [BodyRun],
+    runs: &mut IslandRuns,
     statics: &StaticSet,
     settings: &SolveSettings,
-    meets: &impl Fn(u32, u32) -> bool,
+    rules: &impl MutualRules,
 ) -> Vec<MutualImpact> {
     let slop = settings.linear_slop;
     let mut clock = 0.0f32;
@@ -605,23 +750,26 @@ fn solve_island(
         .iter()
         .map(|&i| path_bounds(bodies[i as usize].parts, &runs[i as usize].path))
         .collect();
-    let both_fixed = |a: u32, b: u32, runs: &[BodyRun]| {
+    let both_fixed = |a: u32, b: u32, runs: &IslandRuns| {
         let fixed = |i: u32| bodies[i as usize].immovable || runs[i as usize].clamped;
         fixed(a) && fixed(b)
     };
     // Pairs by position in the island, with their earliest meeting.
     let mut pairs: Vec<((usize, usize), Option<Meeting>)> = Vec::new();
-    let near = |x: usize, y: usize, bounds: &[Aabb]| {
+    // Pairs the rules rejected an impact of: ignored for the rest of the step.
+    let mut rejected: Vec<(usize, usize)> = Vec::new();
+    let near = |x: usize, y: usize, bounds: &[Aabb], rejected: &[(usize, usize)]| {
         let (a, b) = (island[x], island[y]);
         !(bodies[a as usize].immovable && bodies[b as usize].immovable)
             && bounds[x].expanded(slop).overlaps(&bounds[y])
-            && meets(a, b)
+            && !rejected.contains(&(x, y))
+            && rules.meets(a, b)
     };
     let place = |i: u32| island.binary_search(&i).expect("an island's pair is in it");
     for &(a, b) in island_pairs {
         pairs.push(((place(a), place(b)), None));
     }
-    let search = |(x, y): (usize, usize), runs: &[BodyRun], clock: f32| {
+    let search = |(x, y): (usize, usize), runs: &IslandRuns, clock: f32| {
         let (a, b) = (island[x] as usize, island[y] as usize);
         let mut overlapped = false;
         let pair = (&bodies[b], &runs[b]);
@@ -669,15 +817,30 @@ fn solve_island(
                 contact,
                 ..
             } => {
+                let at = |i: usize| {
+                    let (c, _, (v, w)) = state_at(&runs[i].path, t, settings.dt);
+                    v + w * (contact.point - c).perp()
+                };
+                let hit = MutualHit {
+                    parts: (part_a, part_b),
+                    fraction: t,
+                    point: contact.point,
+                    normal: -contact.normal,
+                    velocity: at(ia) - at(ib),
+                };
+                if !rules.accept(a, b, &hit) {
+                    rejected.push((x, y));
+                    pairs.remove(k);
+                    continue;
+                }
                 // A body past its bound is clamped here, an infinite mass from now on.
                 for i in [ia, ib] {
                     if !bodies[i].immovable
                         && !runs[i].clamped
                         && runs[i].mutual >= MAX_BODY_IMPACTS
                     {
-                        let (_, _, v) = state_at(&runs[i].path, t, settings.dt);
-                        stop_at(&bodies[i], &mut runs[i], t, v, None);
-                        runs[i].clamped = true;
+                        let world = (statics, &rules.world(i as u32));
+                        clamp(&bodies[i], &mut runs[i], t, world, settings);
                     }
                 }
                 let impact = respond(
@@ -687,7 +850,7 @@ fn solve_island(
                     &contact,
                     bodies,
                     runs,
-                    statics,
+                    (statics, rules),
                     settings,
                 );
                 impacts.push(impact);
@@ -705,7 +868,7 @@ fn solve_island(
                 }
                 let key = (w.min(z), w.max(z));
                 if let Err(at) = pairs.binary_search_by_key(&key, |p| p.0)
-                    && near(key.0, key.1, &bounds)
+                    && near(key.0, key.1, &bounds, &rejected)
                 {
                     pairs.insert(at, (key, None));
                 }
@@ -735,8 +898,8 @@ fn respond(
     t: f32,
     contact: &Contact,
     bodies: &[MutualBody],
-    runs: &mut [BodyRun],
-    statics: &StaticSet,
+    runs: &mut IslandRuns,
+    (statics, rules): (&StaticSet, &impl MutualRules),
     settings: &SolveSettings,
 ) -> MutualImpact {
     let (ia, ib) = (a as usize, b as usize);
@@ -788,10 +951,15 @@ fn respond(
         let body = &bodies[i];
         // An immovable body goes on after the impact, as a moving target does: a body stopped
         // there would be struck again at once, so it goes on in both modes.
-        let stop = settings.mode == Resolution::Clamp && !bodies[other].immovable;
+        // A contact the two start the step with does not stop them either, as a contact a
+        // body starts the step with a target: they respond and go on.
+        let stop = settings.mode == Resolution::Clamp && !bodies[other].immovable && t > 0.0;
         match new {
             Err(failure) => stop_at(body, &mut runs[i], t, side.velocity, Some(failure)),
-            Ok(velocity) if stop || t >= 1.0 => stop_at(body, &mut runs[i], t, velocity, None),
+            Ok(velocity) if stop || t >= 1.0 => {
+                let world = (statics, &rules.world(i as u32));
+                stand(body, &mut runs[i], (t, velocity), world, settings);
+            }
             Ok(velocity) => {
                 let remaining = (1.0 - t) * settings.dt;
                 let c = if i == ia { ca } else { cb };
@@ -807,7 +975,8 @@ fn respond(
                     velocity: Some(velocity),
                     ..body.state
                 };
-                resolve_from(t, body, &state, &mut runs[i], statics, settings);
+                let filter = rules.world(i as u32);
+                resolve_from(t, (body, &filter), &state, &mut runs[i], statics, settings);
             }
         }
     }
@@ -917,7 +1086,7 @@ mod tests {
                 immovable: t.immovable,
             })
             .collect();
-        let out = solve_bodies(&bodies, statics, &settings(mode), |_, _| true);
+        let out = solve_bodies(&bodies, statics, &settings(mode), &|_, _| true);
         for (thing, run) in things.iter_mut().zip(&out.runs) {
             let o = &run.outcome;
             let velocity = o.velocity.unwrap();

@@ -3,12 +3,9 @@
 //! one body's step (`body_solver`), the sensors' crossings (`sensor`), and bodies against
 //! bodies ordered in time (`bodies`, with the impulse between two masses in `mutual`).
 
-// The plugin's body-versus-body switch is its caller; until then only its tests call it.
-#[cfg_attr(not(test), allow(dead_code))]
 pub(crate) mod bodies;
 pub(crate) mod body_solver;
 pub(crate) mod cull;
-#[cfg_attr(not(test), allow(dead_code))]
 pub(crate) mod mutual;
 pub(crate) mod pair;
 pub(crate) mod response;
