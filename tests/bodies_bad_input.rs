@@ -46,31 +46,6 @@ fn integrate_finite(
     }
 }
 
-/// A perfectly elastic, frictionless body of `collider`, mass and inertia, at `at` turned by
-/// `angle`, moving at `(v, w)`.
-fn spawn_body(
-    app: &mut App,
-    collider: Collider,
-    (mass, inertia): (f32, f32),
-    (at, angle): (Vec2, f32),
-    (v, w): (Vec2, f32),
-) -> Entity {
-    app.world_mut()
-        .spawn((
-            collider,
-            CcdEnabled::default(),
-            BodyMass { mass, inertia },
-            Restitution(1.0),
-            Friction(0.0),
-            Velocity {
-                linear: v,
-                angular: w,
-            },
-            Transform::from_xyz(at.x, at.y, 0.0).with_rotation(Quat::from_rotation_z(angle)),
-        ))
-        .id()
-}
-
 /// Kinetic energy of `bodies` (mass, inertia), rotation included, in `f64`.
 fn energy(app: &App, bodies: &[(Entity, (f32, f32))]) -> f64 {
     bodies
