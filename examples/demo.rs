@@ -2,8 +2,9 @@
 //! obstacles, 1,000 bodies thrown at 1 to 2,000 m/s with up to three turns per step and
 //! gravity) run with CCD off, on with clamping, and on with sub-stepping. Prints a table and
 //! writes an SVG of a few traces, like the figures of Catto's GDC 2013 talk: a tunnelling ball,
-//! the arena, a level's features, and moving targets (a flipper launching a ball at rest, an
-//! elevator carrying a box), each panel drawn from the plugin's run and clipped to its square.
+//! the arena, a level's features, moving targets (a flipper launching a ball at rest, an
+//! elevator carrying a box), and bodies against bodies (Newton's cradle, a bullet into a
+//! crowd), each panel drawn from the plugin's run and clipped to its square.
 //!
 //! ```text
 //! cargo run --release --example demo [-- STEPS [SVG_PATH]]
@@ -410,6 +411,128 @@ fn movers_scene() -> MoversRun {
     run
 }
 
+/// The bodies panel's runs: Newton's cradle (each ball's x at every step) and a bullet fired
+/// into a crowd (each body's position at every step, the bullet first, its path with bodies
+/// apart, its first impact point of each step and its count of impacts, the deepest it was in
+/// a ball at a step's end).
+struct BodiesRun {
+    cradle: Vec<Vec<f32>>,
+    crowd: Vec<Vec<Vec2>>,
+    apart: Vec<Vec2>,
+    hits: Vec<Vec2>,
+    impacts: u32,
+    deepest: f32,
+}
+
+/// Radii of the crowd's balls and of the bullet (m).
+const CROWD_R: f32 = 0.1;
+const BULLET_R: f32 = 0.05;
+
+/// Bodies against bodies (`bodies_collide`), sub-stepping, no gravity. Newton's cradle: a ball
+/// at 10 m/s strikes a row of four at rest, touching, for 30 steps. A bullet (5 cm, 300 m/s)
+/// into a crowd of 56 balls (10 cm) at rest, 8 steps; traced again with bodies apart, where it
+/// passes through.
+fn bodies_scene() -> BodiesRun {
+    let app = |on: bool| {
+        let config = CcdConfig {
+            resolution: Resolution::SubStep { max_substeps: 4 },
+            bodies_collide: on,
+            ..Default::default()
+        };
+        moving_app(DT, config, Vec2::ZERO)
+    };
+    let ball = |world: &mut World, r: f32, at: Vec2, v: Vec2| {
+        world
+            .spawn((
+                Collider::circle(r).expect("a positive radius"),
+                CcdEnabled::default(),
+                Restitution(1.0),
+                Friction(0.0),
+                Velocity {
+                    linear: v,
+                    angular: 0.0,
+                },
+                Transform::from_xyz(at.x, at.y, 0.0),
+            ))
+            .id()
+    };
+    let at = |app: &bevy_app::App, e: Entity| {
+        let t = app.world().get::<Transform>(e).expect("spawned");
+        t.translation.truncate()
+    };
+    // The cradle: touching at the gap an impact leaves.
+    let mut cradle_app = app(true);
+    let spacing = 2.0 * CROWD_R + bevy_ccd::geometry::LINEAR_SLOP;
+    let world = cradle_app.world_mut();
+    let mut cradle = vec![ball(
+        world,
+        CROWD_R,
+        Vec2::new(-0.5, 0.0),
+        Vec2::new(10.0, 0.0),
+    )];
+    for i in 0..4 {
+        let x = i as f32 * spacing;
+        cradle.push(ball(world, CROWD_R, Vec2::new(x, 0.0), Vec2::ZERO));
+    }
+    let mut cradle_x = vec![Vec::new(); cradle.len()];
+    for k in 0..=30 {
+        if k > 0 {
+            cradle_app.step_fixed(1);
+        }
+        for (x, &e) in cradle_x.iter_mut().zip(&cradle) {
+            x.push(at(&cradle_app, e).x);
+        }
+    }
+    // The bullet and the crowd, with bodies meeting and apart.
+    let crowd_run = |on: bool| {
+        let mut app = app(on);
+        let world = app.world_mut();
+        let bullet = ball(
+            world,
+            BULLET_R,
+            Vec2::new(-4.0, 0.02),
+            Vec2::new(300.0, 6.0),
+        );
+        let mut bodies = vec![bullet];
+        for i in 0..8 {
+            for j in 0..7 {
+                let c = Vec2::new(i as f32 * 0.3, (j as f32 - 3.0) * 0.3);
+                bodies.push(ball(world, CROWD_R, c, Vec2::ZERO));
+            }
+        }
+        let mut paths = vec![Vec::new(); bodies.len()];
+        let (mut hits, mut deepest, mut impacts) = (Vec::new(), 0.0f32, 0);
+        for k in 0..=8 {
+            if k > 0 {
+                app.step_fixed(1);
+            }
+            for (path, &e) in paths.iter_mut().zip(&bodies) {
+                path.push(at(&app, e));
+            }
+            let b = paths[0][k];
+            for path in &paths[1..] {
+                let overlap = CROWD_R + BULLET_R - b.distance(path[k]);
+                deepest = deepest.max(overlap);
+            }
+            if let Some(hits_now) = app.world().get::<CcdOutcome>(bullet).and_then(|o| o.hits()) {
+                hits.push(hits_now.first.point);
+                impacts += hits_now.count;
+            }
+        }
+        (paths, hits, deepest, impacts)
+    };
+    let (crowd, hits, deepest, impacts) = crowd_run(true);
+    let (apart, ..) = crowd_run(false);
+    BodiesRun {
+        cradle: cradle_x,
+        crowd,
+        apart: apart[0].clone(),
+        hits,
+        impacts,
+        deepest,
+    }
+}
+
 fn svg(
     traces: &Traces,
     half: f32,
@@ -417,6 +540,7 @@ fn svg(
     on: &(Vec<Vec2>, Option<Vec2>),
     level: &LevelRun,
     movers: &MoversRun,
+    bodies: &BodiesRun,
 ) -> String {
     let mut s = String::new();
     let size = 480.0;
@@ -439,8 +563,8 @@ fn svg(
     let _ = write!(
         s,
         r##"<svg xmlns="http://www.w3.org/2000/svg" width="{}" height="{size}" viewBox="0 0 {} {size}"><defs><clipPath id="panel"><rect x="0" y="0" width="{size}" height="{size}"/></clipPath></defs>"##,
-        5.0 * size + 40.0,
-        5.0 * size + 40.0
+        6.0 * size + 50.0,
+        6.0 * size + 50.0
     );
     // Panels 1 and 2: the falling ball, CCD off and on. World y in [-6, 16], x in [-8, 8].
     for (k, (title, (path, hit))) in [
@@ -578,6 +702,93 @@ fn svg(
     }
     dots(&mut s, &movers.hits, map, 2.0, "red");
     end_panel(title, &mut s);
+    // Panel 6: bodies against bodies. Above, the cradle as x (world [-0.7, 4.9]) across and
+    // time (one step every 6 px) down; below, the bullet and the crowd, world x in [-4.5, 4],
+    // y in [-1.7, 1.7].
+    let x0 = 5.0 * (size + 10.0);
+    let title = panel(
+        x0,
+        "Bodies against bodies: cradle, bullet into a crowd",
+        &mut s,
+    );
+    let label = |s: &mut String, y: f32, text: &str| {
+        let _ = write!(
+            s,
+            r##"<text x="10" y="{y}" font-family="sans-serif" font-size="11" fill="#555">{text}</text>"##
+        );
+    };
+    label(
+        &mut s,
+        46.0,
+        "Newton's cradle, sub-stepped: x across, time down",
+    );
+    let across = |x: f32| 20.0 + (x + 0.7) / 5.6 * (size - 40.0);
+    for (k, track) in bodies.cradle.iter().enumerate() {
+        let points: Vec<Vec2> = track
+            .iter()
+            .enumerate()
+            .map(|(t, &x)| Vec2::new(across(x), 56.0 + 6.0 * t as f32))
+            .collect();
+        polyline(&mut s, &points, |p| p, colors[k % colors.len()], 2.0);
+        let r = CROWD_R / 5.6 * (size - 40.0);
+        for c in [points[0], points[points.len() - 1]] {
+            let _ = write!(
+                s,
+                r##"<circle cx="{}" cy="{}" r="{r}" fill="none" stroke="{}" stroke-width="1.5"/>"##,
+                c.x,
+                c.y,
+                colors[k % colors.len()]
+            );
+        }
+    }
+    label(
+        &mut s,
+        270.0,
+        "A bullet at 300 m/s into 56 balls (dashed: bodies apart)",
+    );
+    let scale = size / 8.5;
+    let map = |p: Vec2| Vec2::new(size * 0.5 + (p.x + 0.25) * scale, 375.0 - p.y * scale);
+    let circle = |s: &mut String, p: Vec2, r: f32, style: &str| {
+        let c = map(p);
+        let _ = write!(
+            s,
+            r##"<circle cx="{}" cy="{}" r="{}" {style}/>"##,
+            c.x,
+            c.y,
+            r * scale
+        );
+    };
+    let apart: Vec<String> = bodies
+        .apart
+        .iter()
+        .map(|&p| {
+            let m = map(p);
+            format!("{:.1},{:.1}", m.x, m.y)
+        })
+        .collect();
+    let _ = write!(
+        s,
+        r##"<polyline points="{}" fill="none" stroke="#888" stroke-width="1" stroke-dasharray="5 4"/>"##,
+        apart.join(" ")
+    );
+    for path in &bodies.crowd[1..] {
+        circle(&mut s, path[0], CROWD_R, r##"fill="none" stroke="#bbb""##);
+        polyline(&mut s, path, map, "#c63", 0.8);
+        let end = path[path.len() - 1];
+        circle(&mut s, end, CROWD_R, r##"fill="#c63" fill-opacity="0.5""##);
+    }
+    let bullet = &bodies.crowd[0];
+    polyline(&mut s, bullet, map, "#36c", 1.5);
+    for &p in bullet {
+        circle(
+            &mut s,
+            p,
+            BULLET_R,
+            r##"fill="none" stroke="#36c" stroke-width="1.5""##,
+        );
+    }
+    dots(&mut s, &bodies.hits, map, 2.5, "red");
+    end_panel(title, &mut s);
     s.push_str("</svg>\n");
     s
 }
@@ -658,6 +869,7 @@ fn main() {
     let fall_on = falling_ball(true);
     let level = level_scene();
     let movers = movers_scene();
+    let bodies = bodies_scene();
     println!(
         "level: {} impacts, {} sensor crossings; the ball thrown up through the one-way platform ends at y = {:.3} (resting on it: its top 3.05 plus the radius 0.2 and the slop)",
         level.hits.len(),
@@ -671,6 +883,7 @@ fn main() {
         &fall_on,
         &level,
         &movers,
+        &bodies,
     );
     if let Some(dir) = std::path::Path::new(&svg_path).parent() {
         let _ = std::fs::create_dir_all(dir);
@@ -688,6 +901,17 @@ fn main() {
     println!(
         "movers: the flipper launched the ball at up to {launched:.1} m/s; the box rode the elevator {:.1} m up, {carried:.3} m above its centre at the end (half heights 0.3 + 0.1, plus the slop)",
         movers.bodies[1].last().map_or(f32::NAN, |p| p.y) - movers.bodies[1][0].y,
+    );
+    let cradle_v = |k: usize| {
+        let x = &bodies.cradle[k];
+        (x[x.len() - 1] - x[x.len() - 2]) / DT as f32
+    };
+    println!(
+        "bodies: the cradle's last ball leaves at {:.2} m/s (struck at 10), the striker ends at {:.2} m/s; the bullet at 300 m/s into the crowd: {} impacts, at most {:.4} m in a ball at a step's end (bodies apart: it passes through)",
+        cradle_v(4),
+        cradle_v(0),
+        bodies.impacts,
+        bodies.deepest.max(0.0),
     );
     println!(
         "falling ball: CCD off ends at y = {:.2} (through the floor), CCD on ends at y = {:.3}",

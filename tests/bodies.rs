@@ -15,7 +15,7 @@ use bevy_ccd::testing::StepFixed;
 use bevy_ecs::prelude::*;
 use bevy_ecs::system::SystemParam;
 use bevy_transform::prelude::Transform;
-use glam::{DVec2, Quat};
+use glam::DVec2;
 use support::app::*;
 
 /// An app of `resolution`, no gravity, `Velocity` integrated, bodies colliding when `on`.
@@ -27,31 +27,6 @@ fn bodies_app(resolution: Resolution, on: bool) -> App {
         ..Default::default()
     });
     app
-}
-
-/// A perfectly elastic, frictionless body of `collider` with explicit mass and inertia, at
-/// `at` turned by `angle`, moving at `(v, w)`.
-fn spawn_body(
-    app: &mut App,
-    collider: Collider,
-    (mass, inertia): (f32, f32),
-    (at, angle): (Vec2, f32),
-    (v, w): (Vec2, f32),
-) -> Entity {
-    app.world_mut()
-        .spawn((
-            collider,
-            CcdEnabled::default(),
-            BodyMass { mass, inertia },
-            Restitution(1.0),
-            Friction(0.0),
-            Velocity {
-                linear: v,
-                angular: w,
-            },
-            Transform::from_xyz(at.x, at.y, 0.0).with_rotation(Quat::from_rotation_z(angle)),
-        ))
-        .id()
 }
 
 /// Centre (as `f64`) and angle of a body's pose.

@@ -1,9 +1,9 @@
 //! Sensors: bodies crossing them get one *entered* and one *exited* crossing at the fractions
 //! the geometry predicts, at 2,000 m/s through 1 cm and at 5 m/s over several steps; nothing for
 //! a body resting inside, or on a layer the body ignores; crossings along a sub-stepped body's
-//! bent path; poses identical to the bit with and without sensors; the same crossings on one
-//! thread or many; a `Sensor` on a body is ignored; a sensor removed during a step reports
-//! nothing in it.
+//! bent path, also when another body bent it; poses identical to the bit with and without
+//! sensors; the same crossings on one thread or many; a `Sensor` on a body is ignored; a sensor
+//! removed during a step reports nothing in it.
 
 mod support;
 
@@ -228,6 +228,80 @@ fn a_sub_stepped_body_reports_crossings_on_its_bent_path() {
     );
     let (clamped, ..) = run(Resolution::Clamp, true);
     assert!(clamped.is_empty(), "{clamped:?}");
+}
+
+/// Two balls (0.1 m, equal masses, perfectly elastic) meet head-on with bodies colliding, each
+/// moving 4 m a step toward the other and 1 m down: they meet at x = 0 (fraction about 0.474)
+/// and, sub-stepped, go back the way they came, still falling. A 4 cm by 10 cm sensor centred
+/// at (-1, -0.7) lies on A's way back (y = -0.7 at x = -1) and on B's straight path (y = -0.75
+/// at x = -1), 0.45 m from A's way in: it reports A entering and leaving at the fractions of A's
+/// bent path (from the impact's fraction, the faces at x = -0.98 and -1.02 one radius away) and
+/// nothing of B. Clamped, both stop at the impact: nothing. With bodies apart (the switch off),
+/// B's straight path crosses it. The poses are those of the same runs without the sensor, to
+/// the bit.
+#[test]
+fn sensors_see_the_paths_bodies_bent_each_other() {
+    let run = |mode: Resolution, on: bool, sensor: bool| {
+        let mut app = sensing_app(mode);
+        app.world_mut().resource_mut::<CcdConfig>().bodies_collide = on;
+        if sensor {
+            spawn_sensor(&mut app, Vec2::new(0.02, 0.05), Vec2::new(-1.0, -0.7));
+        }
+        let ball = |app: &mut App, x: f32, v: Vec2| {
+            let v = v / DT as f32;
+            let extras = (Restitution(1.0), Friction(0.0));
+            spawn_ball(app, 0.1, Vec2::new(x, 0.0), v, extras)
+        };
+        let a = ball(&mut app, -2.0, Vec2::new(4.0, -1.0));
+        let b = ball(&mut app, 2.0, Vec2::new(-4.0, -1.0));
+        step(&mut app);
+        let hits: Vec<f32> = impacts_at(&app, 1).iter().map(|i| i.fraction).collect();
+        let poses = [a, b].map(|e| (pose_bits(&app, e), velocity_bits(&app, e)));
+        let who = |e: Entity| if e == a { 'A' } else { 'B' };
+        let log: Vec<(char, bool, f32)> = crossings(&app)
+            .iter()
+            .map(|(_, c)| (who(c.body), c.entered, c.fraction))
+            .collect();
+        (log, poses, hits)
+    };
+    let sub = Resolution::SubStep { max_substeps: 4 };
+    let (log, poses, hits) = run(sub, true, true);
+    assert_eq!(
+        hits.len(),
+        2,
+        "one impact, a message for each ball: {hits:?}"
+    );
+    let t = f64::from(hits[0]);
+    // The impact leaves the surfaces the slop apart (± a quarter): the centres 4 - 8 t apart.
+    let gap = 4.0 - 8.0 * t - 0.2;
+    assert!(
+        (f64::from(SLOP - TOL)..=f64::from(SLOP + TOL)).contains(&gap),
+        "{gap}"
+    );
+    // A's centre is at x = -2 + 4 t at the impact, then moves -4 a step.
+    let at = |x: f64| t + (-2.0 + 4.0 * t - x) / 4.0;
+    let (enter, exit) = (at(-0.98 + 0.1), at(-1.02 - 0.1));
+    assert_eq!(log.len(), 2, "{log:?}");
+    assert_eq!(
+        (log[0].0, log[0].1, log[1].0, log[1].1),
+        ('A', true, 'A', false)
+    );
+    // A quarter slop (the crossings' tolerance) in 4 m, and the rounding of the fractions.
+    let tolerance = f64::from(TOL) / 4.0 + 1e-5;
+    for (got, want) in [(log[0].2, enter), (log[1].2, exit)] {
+        assert!(
+            (f64::from(got) - want).abs() <= tolerance,
+            "{got} vs {want}"
+        );
+    }
+    assert_eq!(poses, run(sub, true, false).1, "the sensor moved a body");
+    let (log, poses, _) = run(Resolution::Clamp, true, true);
+    assert!(log.is_empty(), "{log:?}");
+    assert_eq!(poses, run(Resolution::Clamp, true, false).1);
+    // Apart, B's straight path crosses it and A's does not.
+    let (log, ..) = run(sub, false, true);
+    let crossed: Vec<(char, bool)> = log.iter().map(|c| (c.0, c.1)).collect();
+    assert_eq!(crossed, [('B', true), ('B', false)], "{log:?}");
 }
 
 /// A sensor whose layers the body's filter leaves out (or the other way round) reports nothing;

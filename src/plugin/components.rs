@@ -161,13 +161,21 @@ impl Collider {
     }
 
     /// What the listing of a step reads of a body's own collider: its centre of mass, reach,
-    /// and whether its unit mass and inertia are usable.
+    /// and whether its mass and inertia at unit density are usable at the body's uniform world
+    /// `scale` ([`Self::scaled_unit_mass`]): a body shrunk toward nothing (the inertia goes as
+    /// `scale⁴`) has none, as one given a subnormal [`BodyMass`].
     #[inline]
-    pub(crate) fn body_shape(&self) -> BodyShape {
+    pub(crate) fn body_shape(&self, scale: f32) -> BodyShape {
+        let mass_ok = if scale == 1.0 {
+            self.mass_ok
+        } else {
+            let (mass, inertia) = self.scaled_unit_mass(scale);
+            usable_mass(mass, inertia)
+        };
         BodyShape {
             local_center: self.unit_mass.center,
             reach: self.reach,
-            mass_ok: self.mass_ok,
+            mass_ok,
         }
     }
 

@@ -126,7 +126,7 @@ pub(crate) fn list_bodies<'a>(
         // A compound body's parts, centre of mass and reach are placed at its scale already.
         let shape = match (compound, collider) {
             (Some(compound), _) => Some((compound.shape(), 1.0)),
-            (None, Some(collider)) => Some((collider.body_shape(), sweep.scale)),
+            (None, Some(collider)) => Some((collider.body_shape(sweep.scale), sweep.scale)),
             (None, None) => None,
         };
         let Some((shape, at_scale)) = shape.filter(|_| swept) else {

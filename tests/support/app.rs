@@ -13,7 +13,7 @@ use bevy_ccd::testing::{Gravity, StepFixed, headless_app, integrate_velocity};
 use bevy_ccd_fixtures::{Arena, ArenaConfig, spawn_arena};
 use bevy_ecs::prelude::*;
 use bevy_transform::prelude::Transform;
-use glam::Vec3;
+use glam::{Quat, Vec3};
 
 /// The fixed step (s).
 pub const DT: f64 = 1.0 / 60.0;
@@ -156,6 +156,31 @@ pub fn spawn_ball(
         ))
         // After the spawn, so that `extras` may replace `CcdEnabled`.
         .insert(extras)
+        .id()
+}
+
+/// A perfectly elastic, frictionless CCD body of `collider` with explicit mass and inertia, at
+/// `at` turned by `angle`, moving at `(v, w)`.
+pub fn spawn_body(
+    app: &mut App,
+    collider: Collider,
+    (mass, inertia): (f32, f32),
+    (at, angle): (Vec2, f32),
+    (v, w): (Vec2, f32),
+) -> Entity {
+    app.world_mut()
+        .spawn((
+            collider,
+            CcdEnabled::default(),
+            BodyMass { mass, inertia },
+            Restitution(1.0),
+            Friction(0.0),
+            Velocity {
+                linear: v,
+                angular: w,
+            },
+            Transform::from_xyz(at.x, at.y, 0.0).with_rotation(Quat::from_rotation_z(angle)),
+        ))
         .id()
 }
 

@@ -604,17 +604,21 @@ fn pair_meeting(
                             fraction: at(fraction),
                             failure,
                         },
-                        // Too close to search from: the bodies separate along it now.
-                        PairOutcome::Nudge(offset) => Meeting::Hit {
-                            fraction: lo,
-                            parts: (ka as u32, kb as u32),
-                            contact: Contact {
-                                point: sa.center_at(0.0),
-                                normal: -offset.normalize_or(Vec2::X),
-                                separation: 0.0,
-                                patch: None,
-                            },
-                        },
+                        // Too close to search from (at the start, in each other): the
+                        // bodies separate along it now.
+                        PairOutcome::Nudge(offset) => {
+                            *overlapped |= lo == 0.0;
+                            Meeting::Hit {
+                                fraction: lo,
+                                parts: (ka as u32, kb as u32),
+                                contact: Contact {
+                                    point: sa.center_at(0.0),
+                                    normal: -offset.normalize_or(Vec2::X),
+                                    separation: 0.0,
+                                    patch: None,
+                                },
+                            }
+                        }
                         PairOutcome::Clear { overlapping, .. } => {
                             *overlapped |= overlapping && lo == 0.0;
                             continue;
