@@ -192,7 +192,8 @@ pub const MAX_SUBSTEPS: u32 = 64;
 /// The most impacts one body may take with other bodies in one step when bodies meet each
 /// other ([`CcdConfig::bodies_collide`](crate::prelude::CcdConfig::bodies_collide)); at the next it is
 /// clamped where it is for the rest of the step, at rest, and is an infinite mass to the
-/// others.
+/// others. Struck then by something moving that it cannot push (a mover, an immovable or a
+/// clamped body), it is pushed, at most as many times again, then carried along as many.
 ///
 /// Each impact re-solves the body against the world for the rest of the step, so the bound
 /// caps that work; a Newton's cradle of `n` balls takes at most two per ball, and a body in a

@@ -19,8 +19,10 @@
 //!    friction their geometric mean, as Box2D mixes them); then, in `SubStep`, each body that
 //!    can be pushed is solved against the world again from that time to the end of the step
 //!    ([`solve_body_from`]) and its path after it replaced; in `Clamp` both stop there for the
-//!    rest of the step (with their new velocities), unless the other is immovable: that one
-//!    goes on, as a moving target does, so the body goes on too. `T` moves to the impact; only the two
+//!    rest of the step (with their new velocities), unless the other is an infinite mass
+//!    (immovable or clamped): that one may go on, as a moving target does, so the body goes on
+//!    too. Riding a mover, a body's path follows the mover's turn in chords within half the
+//!    slop of the arc ([`follow`]). `T` moves to the impact; only the two
 //!    bodies' pairs are searched again (no pair had an impact before `T`), and a body's new
 //!    path is tested against every body of its island for new pairs. Repeat until no pair hits.
 //! 4. **Closing the islands.** A body's new path can reach a body of another island: once
@@ -38,10 +40,22 @@
 //! at the next it is clamped where it is for the rest of the step (counted in
 //! [`BodiesOutcome::clamped`]) and is an infinite mass to the others from then on. An immovable
 //! body is an infinite mass throughout, as a moving target: it follows its own path, never
-//! pushed. A pair whose two sides are both of infinite mass by then (an immovable body driving
-//! into a clamped one) is not searched again that step. Every impact therefore counts against
-//! some body's bound or clamps one: an island of `n` bodies resolves at most
-//! `n (MAX_BODY_IMPACTS + 1)` impacts.
+//! pushed. A clamped body stands, unless something moving with infinite mass strikes it:
+//!
+//! **Infinite against infinite.** Neither gives way by the masses, yet one must, or the two
+//! (or the mover driving one of them, a blade turning through a pile) end in each other. The
+//! rule: a moving target that strikes a clamped body pushes it as it pushes any body (the
+//! world's solve of it, [`stand`]); a pair of two infinite masses stays searched, and at its
+//! impact the struck side (the clamped one, of two clamped the one moving the less toward
+//! the other) is pushed by the other as by a moving target (the impulse against an infinite
+//! mass, then solved on against the world in both modes). Pushing two bodies apart can fail
+//! to settle (a pile driven by a blade, each push sending one back into the other), so after
+//! [`MAX_BODY_IMPACTS`] pushes a body struck again is *held*: carried rigidly with the body
+//! that struck it for the rest of the step ([`hold`], along the other's path, the world not
+//! searched on the way), as a body out of sub-steps rides a mover; after as many holds the
+//! pair is left to pass (a true squeeze, such as two immovable bodies closing on one).
+//! Every impact counts against one body's bound (of impacts, pushes or holds) or clamps it:
+//! an island of `n` bodies resolves at most `n (3 MAX_BODY_IMPACTS + 1)` impacts.
 //!
 //! **Failures.** A pair's time of impact that fails, or an impulse that fails (a zero or
 //! non-finite mass, a velocity beyond `f32` after the impulse), clamps both bodies at that time
@@ -56,7 +70,7 @@ use crate::geometry::query::toi::{BodyFrame, ToiFailure};
 use crate::geometry::shape::Aabb;
 use crate::geometry::solver::body_solver::{
     BodyFilter, BodyOutcome, BodyPart, BodyState, ImpactRecord, MAX_PARTS, Resolution,
-    SolveSettings, solve_body_from,
+    SolveSettings, follow, held_by, solve_body_from,
 };
 use crate::geometry::solver::mutual::{Side, mutual_response};
 use crate::geometry::solver::pair::{Contact, PairOutcome, contact_patch, pair_toi};
@@ -88,8 +102,12 @@ pub(crate) struct BodyRun {
     /// Impacts with other bodies this step.
     pub(crate) mutual: u32,
     /// Clamped after [`MAX_BODY_IMPACTS`] impacts with other bodies: stands still for the rest
-    /// of the step, an infinite mass to the others.
+    /// of the step (unless a moving target or a body of infinite mass drives it), an infinite
+    /// mass to the others.
     pub(crate) clamped: bool,
+    /// Times it was pushed this step, clamped, by another body of infinite mass (at most
+    /// [`MAX_BODY_IMPACTS`]).
+    pub(crate) driven: u32,
 }
 
 /// An impact between two bodies.
@@ -302,6 +320,7 @@ fn solve_alone(
         impacts: Vec::new(),
         mutual: 0,
         clamped: false,
+        driven: 0,
     };
     resolve_from(
         0.0,
@@ -715,9 +734,9 @@ fn stand(
 
 /// Clamps a body at its bound at fraction `t`: it stands there for the rest of the step, at
 /// rest (a velocity kept would only drive it into the same bodies again next step), an
-/// infinite mass to the others. A moving target that would strike it there cannot push it
-/// (it would push it into the bodies it met): it is squeezed, left standing (the mover may
-/// overlap it at the step's end), as a body a mover catches against a target.
+/// infinite mass to the others. A moving target that strikes it there pushes it as it pushes
+/// any body (left standing, the mover would sink into it); a clamped body it is pushed into
+/// is pushed in turn (see the module's documentation).
 fn clamp(
     body: &MutualBody,
     run: &mut BodyRun,
@@ -725,17 +744,45 @@ fn clamp(
     world: (&StaticSet, &impl BodyFilter),
     settings: &SolveSettings,
 ) {
-    let before = run.impacts.len();
-    let mut stood = run.clone();
-    stand(body, &mut stood, (t, (Vec2::ZERO, 0.0)), world, settings);
-    let struck = stood.impacts.len() > before || stood.outcome.squeezed;
-    if struck {
-        stop_at(body, run, t, (Vec2::ZERO, 0.0), None);
-        run.outcome.squeezed = true;
-    } else {
-        *run = stood;
-    }
+    stand(body, run, (t, (Vec2::ZERO, 0.0)), world, settings);
     run.clamped = true;
+}
+
+/// Body `run` struck at fraction `t` by `leader`, both of infinite mass, once pushing it has
+/// failed to part them [`MAX_BODY_IMPACTS`] times: it is held where it touches the leader and
+/// carried with it, rigidly, for the rest of the step (along the leader's path, [`follow`]),
+/// and leaves with the velocity of the leader's points where it ends.
+fn hold(body: &MutualBody, run: &mut BodyRun, leader: &BodyRun, t: f32, settings: &SolveSettings) {
+    let (c, a, _) = state_at(&run.path, t, settings.dt);
+    cut_path(&mut run.path, t);
+    let mut held = None;
+    for piece in leader.path.iter().filter(|p| p.to > t) {
+        let lo = piece.from.max(t);
+        let lead = |s: f32| {
+            let sweep = sub_sweep(piece, s, s);
+            (sweep.c0, sweep.a0)
+        };
+        let held = *held.get_or_insert_with(|| held_by(lead(lo), (c, a)));
+        let (lc, slop) = (body.state.local_center, settings.linear_slop);
+        follow(lead, (lo, piece.to), held, lc, slop, &mut run.path);
+    }
+    let end = run.path.last().expect("a completed path has a piece").sweep;
+    let last = leader.path.last().expect("a completed path has a piece");
+    let span = (last.to - last.from) * settings.dt;
+    let (v, w) = if span > 0.0 {
+        let s = &last.sweep;
+        (s.linear_motion() / span, s.angular_motion() / span)
+    } else {
+        (Vec2::ZERO, 0.0)
+    };
+    run.impacts.retain(|i| i.fraction <= t);
+    run.outcome.position = end.pose_at(1.0).p;
+    run.outcome.angle = end.a1;
+    run.outcome.impacts = run.impacts.len() as u32;
+    run.outcome.squeezed = false;
+    if body.state.velocity.is_some() {
+        run.outcome.velocity = Some((v + w * (end.c1 - last.sweep.c1).perp(), w));
+    }
 }
 
 /// The time-ordered loop over one island (see the module's documentation), from its candidate
@@ -754,9 +801,14 @@ fn solve_island(
         .iter()
         .map(|&i| path_bounds(bodies[i as usize].parts, &runs[i as usize].path))
         .collect();
-    let both_fixed = |a: u32, b: u32, runs: &IslandRuns| {
-        let fixed = |i: u32| bodies[i as usize].immovable || runs[i as usize].clamped;
-        fixed(a) && fixed(b)
+    let infinite =
+        |i: u32, runs: &IslandRuns| bodies[i as usize].immovable || runs[i as usize].clamped;
+    let drivable = |i: u32, runs: &IslandRuns| {
+        !bodies[i as usize].immovable && runs[i as usize].driven < 2 * MAX_BODY_IMPACTS
+    };
+    // Two infinite masses neither of which can be driven any more are left to pass.
+    let settled = |a: u32, b: u32, runs: &IslandRuns| {
+        infinite(a, runs) && infinite(b, runs) && !drivable(a, runs) && !drivable(b, runs)
     };
     // Pairs by position in the island, with their earliest meeting.
     let mut pairs: Vec<((usize, usize), Option<Meeting>)> = Vec::new();
@@ -847,17 +899,51 @@ fn solve_island(
                         clamp(&bodies[i], &mut runs[i], t, world, settings);
                     }
                 }
-                let impact = respond(
-                    (a, b),
-                    (part_a, part_b),
-                    t,
-                    &contact,
-                    bodies,
-                    runs,
-                    (statics, rules),
-                    settings,
-                );
-                impacts.push(impact);
+                // Two infinite masses: neither gives way by the masses, so the one struck
+                // (of two that may be, the one moving the less toward the other) is pushed as
+                // a moving target pushes a body.
+                let mut pushed = None;
+                if infinite(a, runs) && infinite(b, runs) {
+                    let toward = |i: usize| {
+                        let (c, _, (v, w)) = state_at(&runs[i].path, t, settings.dt);
+                        (v + w * (contact.point - c).perp()).dot(hit.normal)
+                    };
+                    let a_struck = -toward(ia) < toward(ib);
+                    pushed = match (drivable(a, runs), drivable(b, runs)) {
+                        (true, true) => Some(if a_struck { ia } else { ib }),
+                        (true, false) => Some(ia),
+                        (false, true) => Some(ib),
+                        (false, false) => None,
+                    };
+                }
+                if let Some(i) = pushed {
+                    runs[i].driven += 1;
+                }
+                if let Some(i) = pushed.filter(|&i| runs[i].driven > MAX_BODY_IMPACTS) {
+                    let leader = runs[if i == ia { ib } else { ia }].clone();
+                    hold(&bodies[i], &mut runs[i], &leader, t, settings);
+                    impacts.push(MutualImpact {
+                        a,
+                        b,
+                        part_a,
+                        part_b,
+                        fraction: t,
+                        point: contact.point,
+                        normal: hit.normal,
+                    });
+                } else if pushed.is_some() || !(infinite(a, runs) && infinite(b, runs)) {
+                    let impact = respond(
+                        (a, b),
+                        (part_a, part_b),
+                        t,
+                        &contact,
+                        bodies,
+                        runs,
+                        (statics, rules, pushed),
+                        settings,
+                    );
+                    impacts.push(impact);
+                }
             }
         }
         // The two bodies' pairs, searched again from the clock, and any new pair their new
@@ -882,7 +968,7 @@ fn solve_island(
             let (p, q) = pair.0;
             if p == x || p == y || q == x || q == y {
                 let (u, v) = (island[p], island[q]);
-                pair.1 = if both_fixed(u, v, runs) {
+                pair.1 = if settled(u, v, runs) {
                     None
                 } else {
                     search(pair.0, runs, clock).0
@@ -903,7 +989,7 @@ fn respond(
     contact: &Contact,
     bodies: &[MutualBody],
     runs: &mut IslandRuns,
-    (statics, rules): (&StaticSet, &impl MutualRules),
+    (statics, rules, pushed): (&StaticSet, &impl MutualRules, Option<usize>),
     settings: &SolveSettings,
 ) -> MutualImpact {
     let (ia, ib) = (a as usize, b as usize);
@@ -929,7 +1015,8 @@ fn respond(
     let normal = -contact.normal;
     let mass = |i: usize| {
         let body = &bodies[i];
-        (!body.immovable && !runs[i].clamped).then_some((body.state.mass, body.state.inertia))
+        let free = !runs[i].clamped || pushed == Some(i);
+        (!body.immovable && free).then_some((body.state.mass, body.state.inertia))
     };
     let side_a = Side {
         velocity: va,
@@ -951,13 +1038,17 @@ fn respond(
         if side.mass.is_none() {
             continue;
         }
-        runs[i].mutual += 1;
+        // A clamped body pushed counts toward its own bound of pushes, not this one.
+        if pushed != Some(i) {
+            runs[i].mutual += 1;
+        }
         let body = &bodies[i];
-        // An immovable body goes on after the impact, as a moving target does: a body stopped
-        // there would be struck again at once, so it goes on in both modes.
-        // A contact the two start the step with does not stop them either, as a contact a
-        // body starts the step with a target: they respond and go on.
-        let stop = settings.mode == Resolution::Clamp && !bodies[other].immovable && t > 0.0;
+        // An infinite mass (immovable, clamped) may move on after the impact, as a moving
+        // target does: a body stopped there would be struck again at once, so it goes on in
+        // both modes. A contact the two start the step with does not stop them either, as a
+        // contact a body starts the step with a target: they respond and go on.
+        let finite = |j: usize| !bodies[j].immovable && (!runs[j].clamped || pushed == Some(j));
+        let stop = settings.mode == Resolution::Clamp && finite(other) && t > 0.0;
         match new {
             Err(failure) => stop_at(body, &mut runs[i], t, side.velocity, Some(failure)),
             Ok(velocity) if stop || t >= 1.0 => {
@@ -1498,7 +1589,9 @@ mod tests {
 
     /// A ball between two immovable slabs closing on it at 20 m/s each bounces between them
     /// ever faster (sub-steps) or is struck again and again where it stopped (clamp); after
-    /// `MAX_BODY_IMPACTS` impacts it is clamped and counted, and the step ends.
+    /// `MAX_BODY_IMPACTS` impacts it is clamped and counted, then pushed and held by the slabs
+    /// to its bound of those (a true squeeze: nothing can keep it out of both), and the step
+    /// ends.
     #[test]
     fn a_body_past_its_bound_is_clamped_and_counted() {
         let slab = |x: f32, v: f32| {
@@ -1514,6 +1607,7 @@ mod tests {
             let run = &out.runs[1];
             assert!(run.clamped && out.clamped == 1, "{mode:?}: {run:?}");
             assert_eq!(run.mutual, MAX_BODY_IMPACTS, "{mode:?}: {run:?}");
+            assert_eq!(run.driven, 2 * MAX_BODY_IMPACTS, "{mode:?}: {run:?}");
             assert!(things[1].state.sweep.is_finite());
         }
     }

@@ -18,7 +18,7 @@ use crate::geometry::constants::{
     CONTACT_PASSES, MAX_CONTACTS, MAX_CONTACTS_AT_ONE_POSE, MAX_SUBSTEPS, max_world_coordinate,
     separation_tolerance, target_separation,
 };
-use crate::geometry::math::{Pose, left_perp};
+use crate::geometry::math::{Pose, Rot, left_perp};
 use crate::geometry::query::toi::{BodyFrame, ToiFailure};
 use crate::geometry::shape::proxy::ShapeProxy;
 use crate::geometry::solver::cull::{mover_interval, reach_interval};
@@ -902,6 +902,12 @@ fn solve<const MOVERS: bool>(
                         let (from, to) = (m.pose_at(step_fraction), m.pose_at(1.0));
                         result.position = to.transform_point(from.inv_transform_point(pose.p));
                         result.angle = angle + (m.a1 - m.angle_at(step_fraction));
+                        if let Some(path) = path.as_mut() {
+                            let leader = |s: f32| (m.center_at(s), m.angle_at(s));
+                            let held = held_by(leader(step_fraction), (center, angle));
+                            let span = (step_fraction, 1.0);
+                            follow(leader, span, held, body.local_center, slop, path);
+                        }
                         if stalled >= 2
                             && let Some(Some(carry)) = frames.first()
                         {
@@ -942,6 +948,62 @@ fn solve<const MOVERS: bool>(
     }
     result
 }
+
+/// Where a body whose centre and angle are `body` sits in the frame of a leader at `leader`
+/// (a point fixed in it and its angle): the offset [`follow`] carries it at.
+pub(crate) fn held_by(leader: (Vec2, f32), body: (Vec2, f32)) -> (Vec2, f32) {
+    let q = Rot::from_angle(leader.1);
+    (q.inv_rotate(body.0 - leader.0), body.1 - leader.1)
+}
+
+/// Appends to `path` the motion of a body held rigidly by a leader over the fractions
+/// `[from, to]` of the step: `leader(s)` is a point fixed in the leader and its angle at
+/// fraction `s` (linear in `s`), `held` the body's place in it ([`held_by`]). A turning
+/// leader carries the body's centre on an arc; pieces of a sweep are chords, so the stretch is
+/// cut where a chord would leave the arc by more than half the slop (an arc of radius `r`
+/// turned by `θ` is `r (1 - cos(θ / 2)) ≤ r θ² / 8` from its chord, so `θ ≤ √(4 slop / r)`).
+pub(crate) fn follow(
+    leader: impl Fn(f32) -> (Vec2, f32),
+    (from, to): (f32, f32),
+    (offset, turn): (Vec2, f32),
+    local_center: Vec2,
+    slop: f32,
+    path: &mut Vec<PathPiece>,
+) {
+    if to <= from {
+        return;
+    }
+    let at = |s: f32| {
+        let (c, a) = leader(s);
+        (c + Rot::from_angle(a).rotate(offset), a + turn)
+    };
+    let turned = (leader(to).1 - leader(from).1).abs();
+    let widest = (4.0 * slop / offset.length().max(slop)).sqrt();
+    let pieces = (turned / widest)
+        .ceil()
+        .clamp(1.0, MAX_FOLLOW_PIECES as f32) as u32;
+    let (mut start, mut start_s) = (at(from), from);
+    for k in 1..=pieces {
+        let s = if k == pieces {
+            to
+        } else {
+            from + (to - from) * k as f32 / pieces as f32
+        };
+        let end = at(s);
+        let sweep = Sweep::new(local_center, start.0, start.1, end.0, end.1);
+        path.push(PathPiece {
+            sweep,
+            from: start_s,
+            to: s,
+        });
+        (start, start_s) = (end, s);
+    }
+}
+
+/// The most pieces [`follow`] cuts a held body's stretch into (a leader turning a third of a
+/// turn about a body 2.5 m away needs 24 at the default slop; beyond the cap the chords are
+/// coarser).
+const MAX_FOLLOW_PIECES: u32 = 64;
 
 /// Appends to `path`, when given, the part `[0, u]` of `sweep`, which covers the fractions
 /// `[from, to]` of the step.
