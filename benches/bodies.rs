@@ -295,9 +295,15 @@ fn main() {
     if let Some(n) = var("BODIES_PROFILE").and_then(|s| s.parse().ok()) {
         let mut ours = Ours::new(&crowded_box(n, DT, SEED), true, true, false);
         ours.profiled_steps(steps);
+        // The poses' bits hashed: the same answers from two builds have the same hash.
+        let mut hash = std::hash::DefaultHasher::new();
+        for (p, a) in Engine::poses(&mut ours) {
+            std::hash::Hash::hash(&(p.x.to_bits(), p.y.to_bits(), a.to_bits()), &mut hash);
+        }
         println!(
-            "{n} bodies, {steps} steps: {} errors",
-            Engine::errors(&mut ours)
+            "{n} bodies, {steps} steps: {} errors, poses {:016x}",
+            Engine::errors(&mut ours),
+            std::hash::Hasher::finish(&hash)
         );
         return;
     }
