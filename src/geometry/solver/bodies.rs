@@ -933,15 +933,15 @@ fn solve_island(
                     continue;
                 }
                 let key = (w.min(z), w.max(z));
-                if !known.contains(&key) && near(key.0, key.1, &bounds) {
+                // The boxes first: most bodies of an island are far from these two.
+                if near(key.0, key.1, &bounds) && !known.contains(&key) {
                     known.insert(key);
                     list(key, &mut pairs, &mut pairs_of);
                 }
             }
         }
         for z in [x, y] {
-            for k in 0..pairs_of[z].len() {
-                let slot = pairs_of[z][k];
+            for &slot in &pairs_of[z] {
                 let pair = &mut pairs[slot];
                 let (p, q) = pair.key;
                 // The pair of `x` and `y` is in both lists: searched once.
