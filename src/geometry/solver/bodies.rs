@@ -933,8 +933,7 @@ fn solve_island(
                     continue;
                 }
                 let key = (w.min(z), w.max(z));
-                // The boxes first: most bodies of an island are far from these two.
-                if near(key.0, key.1, &bounds) && !known.contains(&key) {
+                if !known.contains(&key) && near(key.0, key.1, &bounds) {
                     known.insert(key);
                     list(key, &mut pairs, &mut pairs_of);
                 }
