@@ -9,9 +9,10 @@
 //! ```text
 //! cargo bench -p bevy_ccd_benches --bench bodies
 //! BODIES_N=1000 ...        # the sizes (default 1000,10000)
-//! BODIES_STEPS=60 ...      # steps a size (default 120)
+//! BODIES_STEPS=60 ...      # steps a size (default 30)
 //! BODIES_PROFILE=10000 ... # only ours, bodies colliding, one thread, for callgrind
-//!                          # (`--toggle-collect='*profiled_steps*'`, BODIES_STEPS steps)
+//!                          # (`--toggle-collect='*profiled_steps*'`, BODIES_STEPS steps;
+//!                          # prints a hash of the poses)
 //! ```
 //!
 //! Reported per engine: the pair-steps in which two bodies end a step more than 1 cm in each
@@ -289,9 +290,11 @@ fn main() {
             .build()
     });
     let var = |name: &str| std::env::var(name).ok();
+    // `cargo test --benches` runs this without `--bench`: a smoke test of 300 bodies, 5 steps.
+    let smoke = !std::env::args().any(|a| a == "--bench");
     let steps: usize = var("BODIES_STEPS")
         .and_then(|s| s.parse().ok())
-        .unwrap_or(120);
+        .unwrap_or(if smoke { 5 } else { 30 });
     if let Some(n) = var("BODIES_PROFILE").and_then(|s| s.parse().ok()) {
         let mut ours = Ours::new(&crowded_box(n, DT, SEED), true, true, false);
         ours.profiled_steps(steps);
@@ -308,7 +311,7 @@ fn main() {
         return;
     }
     let sizes: Vec<usize> = var("BODIES_N")
-        .unwrap_or_else(|| "1000,10000".into())
+        .unwrap_or_else(|| if smoke { "300" } else { "1000,10000" }.into())
         .split(',')
         .filter_map(|s| s.trim().parse().ok())
         .collect();
