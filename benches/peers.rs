@@ -1,7 +1,9 @@
 //! The peers on a level given as plain data ([`Level`]): Box2D v3 (`boxdd`) and Rapier
 //! (`rapier2d`), with their continuous collision on or off, bodies colliding with the statics
-//! (and the movers) only, as in bevy_ccd. Shared by the scene bench and the movers bench,
-//! which adds kinematic movers ([`Peer::add_movers`]) and drives them to a pose each step.
+//! (and the movers) only, as in bevy_ccd by default, or with each other too (as with
+//! `CcdConfig::bodies_collide`). Shared by the scene bench, the movers bench, which adds
+//! kinematic movers ([`Peer::add_movers`]) and drives them to a pose each step, and the bodies
+//! bench.
 
 use bevy_ccd::prelude::*;
 use bevy_ccd_fixtures::Level;
@@ -68,13 +70,16 @@ fn poly(
 /// a world switch in Box2D v3; `bullet` also makes every body a bullet (continuous against
 /// other bodies too, solved in a later stage), which these bodies, filtered to hit statics
 /// only, do not need: both are measured and the cheaper is the one compared. Against a
-/// kinematic mover only a bullet is continuous.
+/// kinematic mover only a bullet is continuous. `bodies_collide`: bodies collide with each
+/// other as well (a bullet's continuous stage then sweeps the other bodies, never another
+/// bullet).
 pub fn box2d(
     f: &'static boxdd::Foundation,
     level: &Level,
     gravity: Vec2,
     ccd: bool,
     bullet: bool,
+    bodies_collide: bool,
 ) -> boxdd::Result<Box2d> {
     use boxdd::{BodyBuilder, BodyType, Filter, Position, ShapeDef, WorldBuilder};
     let mut world = f.create_world(
@@ -87,11 +92,11 @@ pub fn box2d(
             .worker_count(boxdd::WorkerCount::new(1)?)
             .build()?,
     )?;
-    // Bodies collide with statics only, as in bevy_ccd (no body-body contacts).
+    // Bodies collide with statics only, as in bevy_ccd by default, or with each other too.
     let static_filter = STATIC_FILTER;
     let body_filter = Filter {
         category_bits: 1,
-        mask_bits: 2,
+        mask_bits: if bodies_collide { 3 } else { 2 },
         group_index: 0,
     };
     let static_def = ShapeDef::builder().filter(static_filter).build()?;
@@ -260,7 +265,14 @@ pub struct Rapier {
 /// to other bodies); the world switch is `max_ccd_substeps`, 0 turning all of it off. So
 /// "off" here is `max_ccd_substeps = 0`, and "on" the default of 1, with `ccd_enabled` set
 /// when `all_bodies` asks for the wider sweep as well (kinematic movers included).
-pub fn rapier(level: &Level, gravity: Vec2, ccd: bool, all_bodies: bool) -> Rapier {
+/// `bodies_collide`: bodies collide with each other as well.
+pub fn rapier(
+    level: &Level,
+    gravity: Vec2,
+    ccd: bool,
+    all_bodies: bool,
+    bodies_collide: bool,
+) -> Rapier {
     use rapier2d::math::{Pose, Vector};
     use rapier2d::prelude::*;
     let rv = |v: Vec2| Vector::new(v.x, v.y);
@@ -272,8 +284,12 @@ pub fn rapier(level: &Level, gravity: Vec2, ccd: bool, all_bodies: bool) -> Rapi
     }
     let static_groups =
         InteractionGroups::new(Group::GROUP_2, Group::GROUP_1, InteractionTestMode::And);
-    let body_groups =
-        InteractionGroups::new(Group::GROUP_1, Group::GROUP_2, InteractionTestMode::And);
+    let hits = if bodies_collide {
+        Group::GROUP_1 | Group::GROUP_2
+    } else {
+        Group::GROUP_2
+    };
+    let body_groups = InteractionGroups::new(Group::GROUP_1, hits, InteractionTestMode::And);
     for s in &level.statics {
         let h = world
             .bodies

@@ -979,13 +979,15 @@ fn main() {
                     let t = Instant::now();
                     let mut peer: Box<dyn Peer> = match engine {
                         "box2d" => Box::new(
-                            peers::box2d(foundation, &lvl, Vec2::ZERO, ccd, false).expect("box2d"),
+                            peers::box2d(foundation, &lvl, Vec2::ZERO, ccd, false, false)
+                                .expect("box2d"),
                         ),
                         "box2d bullets" => Box::new(
-                            peers::box2d(foundation, &lvl, Vec2::ZERO, ccd, true).expect("box2d"),
+                            peers::box2d(foundation, &lvl, Vec2::ZERO, ccd, true, false)
+                                .expect("box2d"),
                         ),
-                        "rapier" => Box::new(peers::rapier(&lvl, Vec2::ZERO, ccd, false)),
-                        _ => Box::new(peers::rapier(&lvl, Vec2::ZERO, ccd, true)),
+                        "rapier" => Box::new(peers::rapier(&lvl, Vec2::ZERO, ccd, false, false)),
+                        _ => Box::new(peers::rapier(&lvl, Vec2::ZERO, ccd, true, false)),
                     };
                     // Let the broad phase settle once.
                     peer.reset();

@@ -61,7 +61,9 @@
 //! non-finite mass, a velocity beyond `f32` after the impulse), clamps both bodies at that time
 //! with the failure in their outcomes; other bodies are not touched.
 
+use core::cmp::{Ordering, Reverse};
 use core::ops::{Index, IndexMut};
+use std::collections::{BinaryHeap, HashSet};
 
 use glam::Vec2;
 
@@ -785,6 +787,49 @@ fn hold(body: &MutualBody, run: &mut BodyRun, leader: &BodyRun, t: f32, settings
     }
 }
 
+
+/// A candidate pair of an island's loop ([`solve_island`]).
+struct IslandPair {
+    /// The two bodies' positions in the island, lower first.
+    key: (usize, usize),
+    /// Their earliest meeting at or after the clock, as last searched.
+    meeting: Option<Meeting>,
+    /// How many times it was searched again: which [`Due`] entry is current.
+    stamp: u32,
+    /// Not rejected by the rules.
+    live: bool,
+}
+
+/// A pair's meeting in the loop's queue, ordered by time, then by the pair (the lower first).
+#[derive(Clone, Copy, Debug)]
+struct Due {
+    fraction: f32,
+    key: (usize, usize),
+    /// The pair's place in the island's list.
+    slot: usize,
+    stamp: u32,
+}
+
+impl Ord for Due {
+    fn cmp(&self, other: &Self) -> Ordering {
+        (self.fraction.total_cmp(&other.fraction)).then(self.key.cmp(&other.key))
+    }
+}
+
+impl PartialOrd for Due {
+    fn partial_cmp(&self, other: &Self) -> Option<Ordering> {
+        Some(self.cmp(other))
+    }
+}
+
+impl PartialEq for Due {
+    fn eq(&self, other: &Self) -> bool {
+        self.cmp(other) == Ordering::Equal
+    }
+}
+
+impl Eq for Due {}
+
 /// The time-ordered loop over one island (see the module's documentation), from its candidate
 /// pairs (ascending); returns its impacts in time order.
 fn solve_island(
@@ -810,20 +855,33 @@ fn solve_island(
     let settled = |a: u32, b: u32, runs: &IslandRuns| {
         infinite(a, runs) && infinite(b, runs) && !drivable(a, runs) && !drivable(b, runs)
     };
-    // Pairs by position in the island, with their earliest meeting.
-    let mut pairs: Vec<((usize, usize), Option<Meeting>)> = Vec::new();
-    // Pairs the rules rejected an impact of: ignored for the rest of the step.
-    let mut rejected: Vec<(usize, usize)> = Vec::new();
-    let near = |x: usize, y: usize, bounds: &[Aabb], rejected: &[(usize, usize)]| {
+    // Pairs by position in the island, with their earliest meeting, in the order found;
+    // `known` holds every pair ever listed (a rejected one stays, so it is not listed again).
+    let mut pairs: Vec<IslandPair> = Vec::new();
+    let mut known: HashSet<(usize, usize)> = HashSet::new();
+    // Each body's pairs (by their place in `pairs`), by position in the island.
+    let mut pairs_of: Vec<Vec<usize>> = vec![Vec::new(); island.len()];
+    let list = |key: (usize, usize), pairs: &mut Vec<IslandPair>, of: &mut [Vec<usize>]| {
+        of[key.0].push(pairs.len());
+        of[key.1].push(pairs.len());
+        pairs.push(IslandPair {
+            key,
+            meeting: None,
+            stamp: 0,
+            live: true,
+        });
+    };
+    let near = |x: usize, y: usize, bounds: &[Aabb]| {
         let (a, b) = (island[x], island[y]);
         !(bodies[a as usize].immovable && bodies[b as usize].immovable)
             && bounds[x].expanded(slop).overlaps(&bounds[y])
-            && !rejected.contains(&(x, y))
             && rules.meets(a, b)
     };
     let place = |i: u32| island.binary_search(&i).expect("an island's pair is in it");
     for &(a, b) in island_pairs {
-        pairs.push(((place(a), place(b)), None));
+        let key = (place(a), place(b));
+        known.insert(key);
+        list(key, &mut pairs, &mut pairs_of);
     }
     let search = |(x, y): (usize, usize), runs: &IslandRuns, clock: f32| {
         let (a, b) = (island[x] as usize, island[y] as usize);
@@ -832,28 +890,37 @@ fn solve_island(
         let meeting = pair_meeting((&bodies[a], &runs[a]), pair, clock, slop, &mut overlapped);
         (meeting, overlapped)
     };
+    // The pairs' meetings, earliest first (ties to the lower pair): an entry is current while
+    // its pair is live and has not been searched again since (its stamp).
+    let mut due: BinaryHeap<Reverse<Due>> = BinaryHeap::new();
+    let push = |due: &mut BinaryHeap<Reverse<Due>>, slot: usize, pair: &IslandPair| {
+        if let Some(meeting) = pair.meeting {
+            due.push(Reverse(Due {
+                fraction: meeting.fraction(),
+                key: pair.key,
+                slot,
+                stamp: pair.stamp,
+            }));
+        }
+    };
     // Bodies that start the step overlapping another are reported so, as against a target.
-    for pair in &mut pairs {
+    for (slot, pair) in pairs.iter_mut().enumerate() {
         let overlapped;
-        (pair.1, overlapped) = search(pair.0, runs, clock);
+        (pair.meeting, overlapped) = search(pair.key, runs, clock);
         if overlapped {
-            for z in [pair.0.0, pair.0.1] {
+            for z in [pair.key.0, pair.key.1] {
                 runs[island[z] as usize].outcome.started_overlapping = true;
             }
         }
+        push(&mut due, slot, pair);
     }
     let mut impacts = Vec::new();
-    // The earliest meeting, ties to the lower pair (pairs are kept in ascending order).
-    let earliest = |pairs: &[((usize, usize), Option<Meeting>)]| {
-        (0..pairs.len())
-            .filter(|&k| pairs[k].1.is_some())
-            .min_by(|&k, &l| {
-                let f = |k: usize| pairs[k].1.map_or(f32::INFINITY, |m| m.fraction());
-                f(k).total_cmp(&f(l)).then(pairs[k].0.cmp(&pairs[l].0))
-            })
-    };
-    while let Some(k) = earliest(&pairs) {
-        let ((x, y), meeting) = (pairs[k].0, pairs[k].1.expect("filtered"));
+    while let Some(Reverse(next)) = due.pop() {
+        let pair = &pairs[next.slot];
+        if !pair.live || pair.stamp != next.stamp {
+            continue;
+        }
+        let ((x, y), meeting) = (pair.key, pair.meeting.expect("a due pair has a meeting"));
         let (a, b) = (island[x], island[y]);
         let t = meeting.fraction().max(clock);
         clock = t;
@@ -885,8 +952,8 @@ fn solve_island(
                     velocity: at(ia) - at(ib),
                 };
                 if !rules.accept(a, b, &hit) {
-                    rejected.push((x, y));
-                    pairs.remove(k);
+                    // Ignored for the rest of the step, as a rejected target is.
+                    pairs[next.slot].live = false;
                     continue;
                 }
                 // A body past its bound is clamped here, an infinite mass from now on.
@@ -957,22 +1024,28 @@ fn solve_island(
                     continue;
                 }
                 let key = (w.min(z), w.max(z));
-                if let Err(at) = pairs.binary_search_by_key(&key, |p| p.0)
-                    && near(key.0, key.1, &bounds, &rejected)
-                {
-                    pairs.insert(at, (key, None));
+                if !known.contains(&key) && near(key.0, key.1, &bounds) {
+                    known.insert(key);
+                    list(key, &mut pairs, &mut pairs_of);
                 }
             }
         }
-        for pair in pairs.iter_mut() {
-            let (p, q) = pair.0;
-            if p == x || p == y || q == x || q == y {
+        for z in [x, y] {
+            for &slot in &pairs_of[z] {
+                let pair = &mut pairs[slot];
+                let (p, q) = pair.key;
+                // The pair of `x` and `y` is in both lists: searched once.
+                if !pair.live || (z == y && (p == x || q == x)) {
+                    continue;
+                }
                 let (u, v) = (island[p], island[q]);
-                pair.1 = if settled(u, v, runs) {
+                pair.meeting = if settled(u, v, runs) {
                     None
                 } else {
-                    search(pair.0, runs, clock).0
+                    search(pair.key, runs, clock).0
                 };
+                pair.stamp += 1;
+                push(&mut due, slot, pair);
             }
         }
     }
