@@ -787,7 +787,6 @@ fn hold(body: &MutualBody, run: &mut BodyRun, leader: &BodyRun, t: f32, settings
     }
 }
 
-
 /// A candidate pair of an island's loop ([`solve_island`]).
 struct IslandPair {
     /// The two bodies' positions in the island, lower first.
