@@ -169,8 +169,7 @@ impl Collider {
         let mass_ok = if scale == 1.0 {
             self.mass_ok
         } else {
-            let (mass, inertia) = self.scaled_unit_mass(scale);
-            usable_mass(mass, inertia)
+            self.mass_ok_at(scale)
         };
         BodyShape {
             local_center: self.unit_mass.center,
@@ -204,13 +203,22 @@ impl Collider {
     /// the centre is left in the unscaled entity frame.
     #[inline]
     pub(crate) fn scaled_unit_mass(&self, scale: f32) -> (f32, f32) {
-        let props = self.mass_properties(1.0);
+        let unit = &self.unit_mass;
         if scale == 1.0 {
-            (props.mass, props.inertia)
+            (unit.mass, unit.inertia)
         } else {
             let area = scale * scale;
-            (props.mass * area, props.inertia * area * area)
+            (unit.mass * area, unit.inertia * area * area)
         }
+    }
+
+    /// Whether the mass and inertia at unit density are usable at a uniform `scale` other
+    /// than 1: out of line, as nearly every body is at its own scale.
+    #[cold]
+    #[inline(never)]
+    fn mass_ok_at(&self, scale: f32) -> bool {
+        let (mass, inertia) = self.scaled_unit_mass(scale);
+        usable_mass(mass, inertia)
     }
 }
 
