@@ -193,13 +193,7 @@ fn bullet_never_passes_through_a_crowd() {
         let mut app = bodies_app(mode, true);
         let (r, spacing) = (0.05f32, 0.15f32);
         let mut crowd = Vec::new();
-        let mut seed = 7u64;
-        let mut noise = || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((seed >> 40) as f32 / (1u64 << 24) as f32) - 0.5
-        };
+        let mut noise = noise(7);
         for i in 0..100 {
             for j in 0..10 {
                 let at = Vec2::new(i as f32 * spacing, (j as f32 - 4.5) * spacing);

@@ -260,13 +260,7 @@ fn bad_pair_run(bad: Bad, swept: bool) -> (Vec<Vec<[u32; 7]>>, Vec<CcdOutcome>, 
     let mut app = bodies_app(Resolution::default());
     spawn_room(&mut app, 3.0);
     let mut bodies = Vec::new();
-    let mut seed = 11u64;
-    let mut noise = || {
-        seed = seed
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        ((seed >> 40) as f32 / (1u64 << 24) as f32) - 0.5
-    };
+    let mut noise = noise(11);
     for i in 0..6 {
         for j in 0..5 {
             let at = Vec2::new(i as f32 * 0.7 - 1.75, j as f32 * 0.6 - 2.0);

@@ -268,3 +268,14 @@ pub fn body_aabb(app: &App, e: Entity) -> Aabb {
         angle_of(transform),
     ))
 }
+
+/// A seeded source of noise in `[-0.5, 0.5)` (Knuth's MMIX linear congruential generator,
+/// its top 24 bits): the same scene from the same seed on every machine.
+pub fn noise(mut seed: u64) -> impl FnMut() -> f32 {
+    move || {
+        seed = seed
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        ((seed >> 40) as f32 / (1u64 << 24) as f32) - 0.5
+    }
+}
